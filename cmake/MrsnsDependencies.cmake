@@ -1,0 +1,11 @@
+# Every dependency comes from Debian bookworm packages through find_package.
+find_package(Eigen3 3.4 REQUIRED NO_MODULE)
+find_package(spdlog REQUIRED)
+find_package(Threads REQUIRED)
+if(NOT MRSNS_BUILD_FUZZERS)
+  find_package(ZLIB REQUIRED)
+  find_package(nlohmann_json 3 REQUIRED)
+  find_package(CLI11 REQUIRED)
+  find_package(pugixml REQUIRED)
+  find_package(nanoflann REQUIRED)
+endif()

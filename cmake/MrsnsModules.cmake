@@ -1,0 +1,96 @@
+# mrsns_add_module(<name> [PUBLIC_DEPS ...] [PRIVATE_DEPS ...])
+#
+# Builds modules/<name>/src/*.cpp into the library mrsns_<name>, aliased
+# mrsns::<name>, with modules/<name>/include as its public include directory.
+function(mrsns_add_module name)
+  cmake_parse_arguments(ARG "" "" "PUBLIC_DEPS;PRIVATE_DEPS" ${ARGN})
+  file(GLOB _sources CONFIGURE_DEPENDS "${CMAKE_CURRENT_SOURCE_DIR}/src/*.cpp")
+  file(GLOB_RECURSE _headers CONFIGURE_DEPENDS "${CMAKE_CURRENT_SOURCE_DIR}/include/*.h")
+  add_library(mrsns_${name} STATIC ${_sources} ${_headers})
+  add_library(mrsns::${name} ALIAS mrsns_${name})
+  target_include_directories(mrsns_${name}
+    PUBLIC $<BUILD_INTERFACE:${CMAKE_CURRENT_SOURCE_DIR}/include>
+    PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/src)
+  target_link_libraries(mrsns_${name} PUBLIC ${ARG_PUBLIC_DEPS} PRIVATE ${ARG_PRIVATE_DEPS} mrsns_warnings)
+  set_target_properties(mrsns_${name} PROPERTIES POSITION_INDEPENDENT_CODE ON)
+  set_property(GLOBAL APPEND PROPERTY MRSNS_MODULES mrsns_${name})
+endfunction()
+
+# mrsns_add_test(<module> [LIBS ...])
+#
+# One GoogleTest program per tests/<module> folder (every *.cpp in it), each
+# TEST registered with CTest. Tests find the shared data through the
+# MRSNS_DATA_DIR environment variable, set here from the cache variable.
+function(mrsns_add_test module)
+  cmake_parse_arguments(ARG "" "" "LIBS" ${ARGN})
+  file(GLOB _sources CONFIGURE_DEPENDS "${CMAKE_CURRENT_SOURCE_DIR}/*.cpp")
+  set(_exe mrsns_${module}_tests)
+  add_executable(${_exe} ${_sources})
+  target_link_libraries(${_exe} PRIVATE ${ARG_LIBS} mrsns_test_support GTest::gmock GTest::gtest_main mrsns_warnings)
+  gtest_discover_tests(${_exe}
+    TEST_PREFIX "${module}."
+    DISCOVERY_MODE PRE_TEST
+    PROPERTIES ENVIRONMENT "MRSNS_DATA_DIR=${MRSNS_DATA_DIR};MRSNS_BINARY_DIR=${CMAKE_BINARY_DIR}"
+               LABELS ${module})
+endfunction()
+
+# Collects the link closure of a target (names of every library it pulls in).
+function(_mrsns_link_closure target out_var)
+  set(_seen "")
+  set(_todo ${target})
+  while(_todo)
+    list(POP_FRONT _todo _t)
+    if(_t IN_LIST _seen)
+      continue()
+    endif()
+    list(APPEND _seen ${_t})
+    if(NOT TARGET ${_t})
+      continue()
+    endif()
+    get_target_property(_type ${_t} TYPE)
+    set(_deps "")
+    if(NOT _type STREQUAL "INTERFACE_LIBRARY")
+      get_target_property(_link ${_t} LINK_LIBRARIES)
+      if(_link)
+        list(APPEND _deps ${_link})
+      endif()
+    endif()
+    get_target_property(_ilink ${_t} INTERFACE_LINK_LIBRARIES)
+    if(_ilink)
+      list(APPEND _deps ${_ilink})
+    endif()
+    foreach(_d IN LISTS _deps)
+      # Strip generator expressions such as $<LINK_ONLY:...> down to the name.
+      string(REGEX REPLACE "^\\$<[A-Z_]+:(.*)>$" "\\1" _d "${_d}")
+      if(_d MATCHES "^\\$<" OR _d STREQUAL "")
+        continue()
+      endif()
+      list(APPEND _todo ${_d})
+    endforeach()
+  endwhile()
+  set(${out_var} ${_seen} PARENT_SCOPE)
+endfunction()
+
+# Fails the configuration when a module under modules/ links Qt (directly or
+# through a dependency such as VTK::GUISupportQt) or includes a Qt header.
+function(mrsns_check_module_boundaries)
+  get_property(_modules GLOBAL PROPERTY MRSNS_MODULES)
+  foreach(_m IN LISTS _modules)
+    _mrsns_link_closure(${_m} _closure)
+    foreach(_lib IN LISTS _closure)
+      if(_lib MATCHES "^Qt[0-9]*::" OR _lib MATCHES "^VTK::(GUISupportQt|RenderingQt|ViewsQt)$"
+         OR _lib MATCHES "libQt[0-9]")
+        message(FATAL_ERROR "Module boundary violated: ${_m} links ${_lib}. "
+          "Only app/gui may use Qt (see ARCHITECTURE.md); move the Qt code to app/gui.")
+      endif()
+    endforeach()
+  endforeach()
+  file(GLOB_RECURSE _module_sources "${CMAKE_SOURCE_DIR}/modules/*.h" "${CMAKE_SOURCE_DIR}/modules/*.cpp")
+  foreach(_f IN LISTS _module_sources)
+    file(STRINGS "${_f}" _qt_includes REGEX "^[ \t]*#[ \t]*include[ \t]*[<\"](Q[A-Z][A-Za-z]*|Qt[A-Za-z]*/|QVTK)")
+    if(_qt_includes)
+      message(FATAL_ERROR "Module boundary violated: ${_f} includes Qt (${_qt_includes}). "
+        "Only app/gui may use Qt (see ARCHITECTURE.md).")
+    endif()
+  endforeach()
+endfunction()

@@ -1,0 +1,61 @@
+#pragma once
+// Runs the real mrsns-cli binary from tests: exit code, stdout and stderr.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+namespace mrsns::test {
+
+struct CliResult {
+  int exit_code = -1;
+  std::string out;
+  std::string err;
+};
+
+inline std::filesystem::path cliBinary() {
+  const char* binary = std::getenv("MRSNS_BINARY_DIR");
+  return std::filesystem::path(binary ? binary : ".") / "app" / "cli" / "mrsns-cli";
+}
+
+inline std::string quoteArgument(const std::string& s) {
+  std::string quoted = "'";
+  for (char c : s) {
+    if (c == '\'') quoted += "'\\''";
+    else quoted += c;
+  }
+  return quoted + "'";
+}
+
+/// Runs `mrsns-cli ARGS...` (arguments are shell-quoted) and captures its output.
+inline CliResult runCli(const std::vector<std::string>& args) {
+  static int counter = 0;
+  const auto dir = std::filesystem::temp_directory_path() / ("mrsns-cli-test-" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  const auto out_file = dir / ("out" + std::to_string(counter) + ".txt");
+  const auto err_file = dir / ("err" + std::to_string(counter++) + ".txt");
+  std::string command = quoteArgument(cliBinary().string());
+  for (const auto& a : args) command += " " + quoteArgument(a);
+  command += " >" + quoteArgument(out_file.string()) + " 2>" + quoteArgument(err_file.string()) + " </dev/null";
+  const int status = std::system(command.c_str());
+  CliResult result;
+  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+  auto slurp = [](const std::filesystem::path& p) {
+    std::ifstream in(p, std::ios::binary);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+  };
+  result.out = slurp(out_file);
+  result.err = slurp(err_file);
+  std::filesystem::remove(out_file);
+  std::filesystem::remove(err_file);
+  return result;
+}
+
+}  // namespace mrsns::test
