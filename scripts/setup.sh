@@ -1,0 +1,56 @@
+#!/usr/bin/env bash
+# Installs what is missing (Debian 12 packages), builds MR-SNS, and runs the
+# main job on the sample data. Options:
+#   --no-demo   install and build only
+set -euo pipefail
+source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
+
+run_demo=1
+for arg in "$@"; do
+  case "$arg" in
+    --no-demo) run_demo=0 ;;
+    -h|--help) sed -n '2,5p' "$0"; exit 0 ;;
+    *) echo "setup.sh: unknown option '$arg' (try --help)" >&2; exit 2 ;;
+  esac
+done
+
+phase_start "packages"
+mapfile -t packages < <(grep -v '^\s*#' "$MRSNS_ROOT/scripts/debian-packages.txt" | sed '/^\s*$/d')
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -gt 0 ]; then
+  echo "installing ${#missing[@]} missing packages: ${missing[*]}"
+  SUDO=""
+  [ "$(id -u)" -ne 0 ] && SUDO="sudo"
+  $SUDO apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y --no-install-recommends "${missing[@]}"
+else
+  echo "all ${#packages[@]} packages present"
+fi
+phase_end
+
+phase_start "build"
+mrsns_build
+phase_end
+
+[ "$run_demo" = 1 ] || exit 0
+
+phase_start "main job"
+cli="$MRSNS_BUILD_DIR/app/cli/mrsns-cli"
+recording="$MRSNS_DATA_DIR/plus/fCal_Test_Calibration_3NWires.igs.mha"
+if [ ! -f "$recording" ]; then
+  echo "The sample recording was not found at $recording."
+  echo "Set MRSNS_DATA_DIR to the shared data folder (see README.md) and run again."
+  exit 1
+fi
+out="$MRSNS_BUILD_DIR/demo"
+mkdir -p "$out"
+"$cli" info "$recording"
+"$cli" convert "$recording" "$out/fCal_Test_Calibration_3NWires.seq.nrrd"
+"$cli" info "$out/fCal_Test_Calibration_3NWires.seq.nrrd"
+"$cli" info "$MRSNS_DATA_DIR/plus/PlusDeviceSet_fCal_Sim_SpatialCalibration_1.2.xml"
+"$cli" info "$MRSNS_DATA_DIR/ct/totalsegmentator/example_ct_dicom"
+echo "Main job done; outputs in $out"
+phase_end

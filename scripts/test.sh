@@ -1,0 +1,20 @@
+#!/usr/bin/env bash
+# Runs the whole MR-SNS test suite: builds if needed, runs the fuzzer briefly
+# (when clang-14 with libFuzzer is present), then every CTest test under
+# xvfb-run. Extra arguments go to ctest (e.g. -R '^core\.').
+set -euo pipefail
+source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
+
+phase_start "build"
+mrsns_build
+phase_end
+
+if [ $# -eq 0 ] && command -v clang++-14 >/dev/null 2>&1; then
+  phase_start "fuzz (short run)"
+  "$MRSNS_ROOT/scripts/fuzz.sh" "${MRSNS_FUZZ_SECONDS:-30}"
+  phase_end
+fi
+
+phase_start "tests"
+xvfb-run -a ctest --test-dir "$MRSNS_BUILD_DIR" --output-on-failure -j "$(nproc)" "$@"
+phase_end
