@@ -1,0 +1,345 @@
+// Image files in and out of ImageVolume: formats, geometry checks, DICOM
+// series stacking and label statistics. ITK is reached only through
+// itk_bridge.h (see there why).
+#include "mrsns/io/image_io.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <limits>
+#include <map>
+
+#include "itk_bridge.h"
+#include "mrsns/core/error.h"
+#include "mrsns/core/log.h"
+
+namespace mrsns::io {
+namespace {
+
+std::string quoted(const std::filesystem::path& path) {
+  return "'" + path.string() + "'";
+}
+
+std::string lowerName(const std::filesystem::path& path) {
+  std::string name = path.filename().string();
+  std::transform(name.begin(), name.end(), name.begin(), [](unsigned char c) { return std::tolower(c); });
+  return name;
+}
+
+bool endsWith(const std::string& s, const std::string& suffix) {
+  return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
+}
+
+bool hasDicomPreamble(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  char buffer[132] = {};
+  if (!in.read(buffer, sizeof buffer)) return false;
+  return std::memcmp(buffer + 128, "DICM", 4) == 0;
+}
+
+detail::RawImageFormat rawFormat(ImageFormat format) {
+  switch (format) {
+    case ImageFormat::Nrrd: return detail::RawImageFormat::Nrrd;
+    case ImageFormat::Nifti: return detail::RawImageFormat::Nifti;
+    case ImageFormat::MetaImage: return detail::RawImageFormat::MetaImage;
+    case ImageFormat::Dicom: return detail::RawImageFormat::Dicom;
+  }
+  return detail::RawImageFormat::Nrrd;
+}
+
+/// 64-bit integer voxels: int32 when every value fits, else float64.
+template <typename Int64>
+std::vector<std::byte> narrowWideIntegers(const std::vector<std::byte>& raw, PixelType& type) {
+  const std::size_t n = raw.size() / 8;
+  std::vector<Int64> values(n);
+  std::memcpy(values.data(), raw.data(), n * 8);
+  const bool fits = std::all_of(values.begin(), values.end(), [](Int64 v) {
+    return static_cast<long double>(v) >= std::numeric_limits<std::int32_t>::min() &&
+           static_cast<long double>(v) <= std::numeric_limits<std::int32_t>::max();
+  });
+  std::vector<std::byte> out;
+  if (fits) {
+    type = PixelType::Int32;
+    out.resize(n * 4);
+    for (std::size_t i = 0; i < n; ++i) {
+      const auto v = static_cast<std::int32_t>(values[i]);
+      std::memcpy(out.data() + i * 4, &v, 4);
+    }
+  } else {
+    type = PixelType::Float64;
+    out.resize(n * 8);
+    for (std::size_t i = 0; i < n; ++i) {
+      const auto v = static_cast<double>(values[i]);
+      std::memcpy(out.data() + i * 8, &v, 8);
+    }
+  }
+  return out;
+}
+
+void checkGeometry(const ImageVolume& image, const std::filesystem::path& path) {
+  if (!image.spacing.allFinite() || (image.spacing.array() <= 0.0).any()) {
+    throw FormatError("image " + quoted(path) + " has an invalid spacing (" + std::to_string(image.spacing.x()) + ", " +
+                      std::to_string(image.spacing.y()) + ", " + std::to_string(image.spacing.z()) + ")");
+  }
+  if (!image.origin.allFinite() || !image.direction.allFinite() || std::abs(image.direction.determinant()) < 1e-6) {
+    throw FormatError("image " + quoted(path) + " has an invalid origin or a singular direction matrix");
+  }
+}
+
+ImageVolume fromRaw(detail::RawImage raw, const std::filesystem::path& path) {
+  ImageVolume image;
+  image.name = path.filename().string();
+  for (int axis = 0; axis < 3; ++axis) {
+    image.size[static_cast<std::size_t>(axis)] = static_cast<int>(raw.size[static_cast<std::size_t>(axis)]);
+    image.spacing[axis] = raw.spacing[static_cast<std::size_t>(axis)];
+    image.origin[axis] = raw.origin[static_cast<std::size_t>(axis)];
+    for (int row = 0; row < 3; ++row)
+      image.direction(row, axis) = raw.direction[static_cast<std::size_t>(row * 3 + axis)];
+  }
+  checkGeometry(image, path);
+  using C = detail::RawComponent;
+  switch (raw.component) {
+    case C::UInt8: image.pixel_type = PixelType::UInt8; break;
+    case C::Int8: image.pixel_type = PixelType::Int8; break;
+    case C::UInt16: image.pixel_type = PixelType::UInt16; break;
+    case C::Int16: image.pixel_type = PixelType::Int16; break;
+    case C::UInt32: image.pixel_type = PixelType::UInt32; break;
+    case C::Int32: image.pixel_type = PixelType::Int32; break;
+    case C::Float32: image.pixel_type = PixelType::Float32; break;
+    case C::Float64: image.pixel_type = PixelType::Float64; break;
+    case C::Int64: raw.data = narrowWideIntegers<std::int64_t>(raw.data, image.pixel_type); break;
+    case C::UInt64: raw.data = narrowWideIntegers<std::uint64_t>(raw.data, image.pixel_type); break;
+  }
+  image.data = std::move(raw.data);
+  if (image.data.size() != image.byteCount()) {
+    throw FormatError("image " + quoted(path) + ": read " + std::to_string(image.data.size()) + " bytes of voxels, " +
+                      std::to_string(image.byteCount()) + " expected from its header");
+  }
+  return image;
+}
+
+/// Re-stores a volume's voxels as float64 (slices of a series whose rescale
+/// gave them different types).
+void toFloat64(ImageVolume& image) {
+  if (image.pixel_type == PixelType::Float64) return;
+  std::vector<std::byte> out(image.voxelCount() * 8);
+  for (std::size_t i = 0; i < image.voxelCount(); ++i) {
+    const double v = image.valueAtIndex(i);
+    std::memcpy(out.data() + i * 8, &v, 8);
+  }
+  image.data = std::move(out);
+  image.pixel_type = PixelType::Float64;
+}
+
+ImageReadResult readDicomSeries(const std::filesystem::path& folder) {
+  const detail::DicomSeriesFiles series = detail::findDicomSeries(folder);
+  ImageReadResult result;
+  result.format = ImageFormat::Dicom;
+  result.series_in_folder = series.series_count;
+  result.series_uid = series.series_uid;
+  if (series.series_count > 1) {
+    logger()->warn("folder '{}' holds {} DICOM series; reading the largest ({} files)", folder.string(),
+                   series.series_count, series.files.size());
+  }
+  std::vector<ImageVolume> slices;
+  slices.reserve(series.files.size());
+  for (const auto& f : series.files)
+    slices.push_back(fromRaw(detail::readRawImage(detail::RawImageFormat::Dicom, f), f));
+  const ImageVolume first = slices.front();
+  const Eigen::Vector3d normal = first.direction.col(2).normalized();
+  for (const auto& s : slices) {
+    if (s.size[0] != first.size[0] || s.size[1] != first.size[1] || s.size[2] != 1) {
+      throw FormatError("DICOM series in " + quoted(folder) + " mixes slice sizes (" + s.name + " is " +
+                        std::to_string(s.size[0]) + "x" + std::to_string(s.size[1]) + "x" + std::to_string(s.size[2]) +
+                        ")");
+    }
+  }
+  // Order along the slice normal ourselves rather than trusting file order.
+  std::stable_sort(slices.begin(), slices.end(), [&](const ImageVolume& a, const ImageVolume& b) {
+    return normal.dot(a.origin) < normal.dot(b.origin);
+  });
+  const bool mixed_types = std::any_of(slices.begin(), slices.end(),
+                                       [&](const ImageVolume& s) { return s.pixel_type != slices.front().pixel_type; });
+  if (mixed_types) {
+    for (auto& s : slices) toFloat64(s);
+  }
+  ImageVolume image;
+  image.name = folder.filename().string();
+  image.size = {first.size[0], first.size[1], static_cast<int>(slices.size())};
+  image.origin = slices.front().origin;
+  image.direction = slices.front().direction;
+  image.spacing = slices.front().spacing;
+  image.pixel_type = slices.front().pixel_type;
+  if (slices.size() > 1) {
+    const Eigen::Vector3d step = slices.back().origin - slices.front().origin;
+    const double span = normal.dot(step);
+    if (span <= 0.0) {
+      throw FormatError("DICOM series in " + quoted(folder) +
+                        " has its slices at one position (several frames or echoes per location?): cannot stack them");
+    }
+    image.spacing.z() = span / static_cast<double>(slices.size() - 1);
+    if ((step.normalized() - normal).norm() > 1e-3) {
+      logger()->warn("DICOM series in '{}': slices step off the slice normal (gantry tilt?); geometry uses the normal",
+                     folder.string());
+    }
+    for (std::size_t i = 1; i < slices.size(); ++i) {
+      const double gap = normal.dot(slices[i].origin - slices[i - 1].origin);
+      result.slice_gap_deviation_mm = std::max(result.slice_gap_deviation_mm, std::abs(gap - image.spacing.z()));
+    }
+    if (result.slice_gap_deviation_mm > 0.01 * image.spacing.z()) {
+      logger()->warn("DICOM series in '{}': slice gaps deviate up to {:.3f} mm from {:.3f} mm (missing slices?)",
+                     folder.string(), result.slice_gap_deviation_mm, image.spacing.z());
+    }
+  }
+  const std::size_t slice_bytes = first.voxelCount() * pixelTypeSize(image.pixel_type);
+  image.data.resize(slice_bytes * slices.size());
+  for (std::size_t k = 0; k < slices.size(); ++k) {
+    std::memcpy(image.data.data() + k * slice_bytes, slices[k].data.data(), slice_bytes);
+  }
+  checkGeometry(image, folder);
+  result.file_count = slices.size();
+  result.image = std::move(image);
+  return result;
+}
+
+}  // namespace
+
+std::string imageFormatName(ImageFormat format) {
+  switch (format) {
+    case ImageFormat::Nrrd: return "nrrd";
+    case ImageFormat::Nifti: return "nifti";
+    case ImageFormat::MetaImage: return "metaimage";
+    case ImageFormat::Dicom: return "dicom";
+  }
+  return "unknown";
+}
+
+ImageFormat imageFormatFromPath(const std::filesystem::path& path) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) return ImageFormat::Dicom;
+  const std::string name = lowerName(path);
+  if (endsWith(name, ".nrrd") || endsWith(name, ".nhdr")) return ImageFormat::Nrrd;
+  if (endsWith(name, ".nii") || endsWith(name, ".nii.gz")) return ImageFormat::Nifti;
+  if (endsWith(name, ".mha") || endsWith(name, ".mhd")) return ImageFormat::MetaImage;
+  if (endsWith(name, ".dcm") || endsWith(name, ".dicom")) return ImageFormat::Dicom;
+  if (std::filesystem::is_regular_file(path, ec) && hasDicomPreamble(path)) return ImageFormat::Dicom;
+  throw UnsupportedError("image " + quoted(path) +
+                         " is not a known image format: use .nrrd/.nhdr, .nii/.nii.gz, .mha/.mhd, DICOM files or a "
+                         "DICOM series folder");
+}
+
+ImageReadResult readImageFile(const std::filesystem::path& path) {
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) {
+    throw FileError("image " + quoted(path) + " does not exist: check the path");
+  }
+  const ImageFormat format = imageFormatFromPath(path);
+  if (std::filesystem::is_directory(path, ec)) return readDicomSeries(path);
+  {
+    std::ifstream probe(path, std::ios::binary);
+    if (!probe) throw FileError("cannot open image " + quoted(path) + ": check its permissions");
+  }
+  ImageReadResult result;
+  result.format = format;
+  result.image = fromRaw(detail::readRawImage(rawFormat(format), path), path);
+  return result;
+}
+
+ImageVolume readImage(const std::filesystem::path& path) {
+  return readImageFile(path).image;
+}
+
+void writeImage(const ImageVolume& image, const std::filesystem::path& path, const ImageWriteOptions& options) {
+  const std::string name = lowerName(path);
+  ImageFormat format = ImageFormat::Nrrd;
+  if (endsWith(name, ".nrrd") || endsWith(name, ".nhdr")) {
+    format = ImageFormat::Nrrd;
+  } else if (endsWith(name, ".nii") || endsWith(name, ".nii.gz")) {
+    format = ImageFormat::Nifti;
+  } else if (endsWith(name, ".mha") || endsWith(name, ".mhd")) {
+    format = ImageFormat::MetaImage;
+  } else {
+    throw UnsupportedError("cannot write image " + quoted(path) + ": use .nrrd, .nhdr, .nii, .nii.gz, .mha or .mhd");
+  }
+  if (image.empty() || std::any_of(image.size.begin(), image.size.end(), [](int s) { return s <= 0; })) {
+    throw InvalidArgumentError("cannot write image " + quoted(path) + ": the volume is empty");
+  }
+  if (image.data.size() != image.byteCount()) {
+    throw InvalidArgumentError("cannot write image " + quoted(path) + ": buffer holds " +
+                               std::to_string(image.data.size()) + " bytes but size and pixel type need " +
+                               std::to_string(image.byteCount()));
+  }
+  if (!image.spacing.allFinite() || (image.spacing.array() <= 0.0).any() || !image.origin.allFinite() ||
+      !image.direction.allFinite() || std::abs(image.direction.determinant()) < 1e-6) {
+    throw InvalidArgumentError("cannot write image " + quoted(path) +
+                               ": spacing must be positive and the direction matrix invertible");
+  }
+  detail::RawImage raw;
+  for (int axis = 0; axis < 3; ++axis) {
+    const auto a = static_cast<std::size_t>(axis);
+    raw.size[a] = static_cast<std::size_t>(image.size[a]);
+    raw.spacing[a] = image.spacing[axis];
+    raw.origin[a] = image.origin[axis];
+    for (int row = 0; row < 3; ++row)
+      raw.direction[static_cast<std::size_t>(row * 3 + axis)] = image.direction(row, axis);
+  }
+  using C = detail::RawComponent;
+  switch (image.pixel_type) {
+    case PixelType::UInt8: raw.component = C::UInt8; break;
+    case PixelType::Int8: raw.component = C::Int8; break;
+    case PixelType::UInt16: raw.component = C::UInt16; break;
+    case PixelType::Int16: raw.component = C::Int16; break;
+    case PixelType::UInt32: raw.component = C::UInt32; break;
+    case PixelType::Int32: raw.component = C::Int32; break;
+    case PixelType::Float32: raw.component = C::Float32; break;
+    case PixelType::Float64: raw.component = C::Float64; break;
+  }
+  // The bridge only reads the buffer; avoid copying a large volume.
+  raw.data.clear();
+  detail::writeRawImage(raw, image.data, rawFormat(format), path, options.compress);
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) {
+    throw FileError("writing image " + quoted(path) + " failed: no file was created");
+  }
+}
+
+std::optional<std::vector<LabelCount>> labelStatistics(const ImageVolume& image, std::size_t max_labels) {
+  const std::size_t n = image.voxelCount();
+  if (image.data.size() < image.byteCount()) return std::nullopt;
+  // Small integer types: a dense histogram is faster than a map.
+  if (image.pixel_type == PixelType::UInt8 || image.pixel_type == PixelType::Int8 ||
+      image.pixel_type == PixelType::UInt16 || image.pixel_type == PixelType::Int16) {
+    const bool wide = pixelTypeSize(image.pixel_type) == 2;
+    const std::int64_t offset = (image.pixel_type == PixelType::Int8)    ? 128
+                                : (image.pixel_type == PixelType::Int16) ? 32768
+                                                                         : 0;
+    std::vector<std::size_t> histogram(wide ? 65536 : 256, 0);
+    for (std::size_t i = 0; i < n; ++i) {
+      const auto v = static_cast<std::int64_t>(image.valueAtIndex(i));
+      ++histogram[static_cast<std::size_t>(v + offset)];
+    }
+    std::vector<LabelCount> labels;
+    for (std::size_t b = 0; b < histogram.size(); ++b) {
+      if (histogram[b] == 0) continue;
+      if (labels.size() == max_labels) return std::nullopt;
+      labels.push_back({static_cast<std::int64_t>(b) - offset, histogram[b]});
+    }
+    return labels;
+  }
+  std::map<std::int64_t, std::size_t> counts;
+  for (std::size_t i = 0; i < n; ++i) {
+    const double v = image.valueAtIndex(i);
+    if (!std::isfinite(v) || v != std::floor(v) || std::abs(v) > 9.0e15) return std::nullopt;
+    auto [it, inserted] = counts.try_emplace(static_cast<std::int64_t>(v), 0);
+    ++it->second;
+    if (inserted && counts.size() > max_labels) return std::nullopt;
+  }
+  std::vector<LabelCount> labels;
+  labels.reserve(counts.size());
+  for (const auto& [value, voxels] : counts) labels.push_back({value, voxels});
+  return labels;
+}
+
+}  // namespace mrsns::io
