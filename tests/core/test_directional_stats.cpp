@@ -153,6 +153,12 @@ TEST(DirectionalStats, OffsetsUseSampleMeanAndStd) {
   EXPECT_EQ(d.offset_std.z(), 0.0);
   // Distances from the mean: sqrt(2) * {1.5, 0.5, 0.5, 1.5}.
   EXPECT_NEAR(d.offset_distance_mean, std::sqrt(2.0), 1e-14);
+  EXPECT_NEAR(d.offset_distance_std, std::sqrt(2.0) * std::sqrt(4 * 0.25 / 3.0), 1e-14);
+  // Lengths: sqrt(2 x^2 + 25) for x = 1..4.
+  double norm_sum = 0.0;
+  for (double x : {1.0, 2.0, 3.0, 4.0}) norm_sum += std::sqrt(2.0 * x * x + 25.0);
+  EXPECT_NEAR(d.offset_norm_mean, norm_sum / 4.0, 1e-13);
+  EXPECT_GT(d.offset_norm_std, 0.0);
 
   const TransformDispersion single = transformDispersion(std::vector{estimates[0]});
   EXPECT_EQ(single.offset_std.norm(), 0.0);

@@ -77,6 +77,31 @@ TEST(TimeSeries, PoseInterpolationIsExactAtAndBetweenSamples) {
   }
 }
 
+TEST(TimeSeries, ScrewMotionDeviatesByExactlyTheChordSagitta) {
+  // A constant SE(3) twist moves the origin on a helix of radius r about the screw axis. Slerp
+  // keeps the rotation exact; linear interpolation of the translation cuts the chord, whose
+  // midpoint lies r (1 - cos(w dt / 2)) inside the arc (the axial part is linear, so exact).
+  const double w = 0.8;      // rad/s
+  const double r = 100.0;    // mm
+  const double pitch = 5.0;  // mm/rad
+  const double dt = 0.05;
+  const Eigen::Vector3d axis = Eigen::Vector3d(1, 2, 2) / 3.0;
+  const Eigen::Vector3d center = r * axis.cross(Eigen::Vector3d::UnitX()).normalized();  // on the axis, r from 0
+  Vector6d xi;
+  xi << -(w * axis).cross(center) + pitch * w * axis, w * axis;
+  PoseTimeSeries series;
+  for (int k = 0; k <= 20; ++k) series.append(k * dt, se3Exp(k * dt * xi));
+  const double sagitta = r * (1.0 - std::cos(w * dt / 2.0));
+  for (int k = 0; k < 20; ++k) {
+    const double t = (k + 0.5) * dt;
+    const Interpolated<Eigen::Isometry3d> r_t = series.interpolate(t);
+    ASSERT_TRUE(r_t.ok());
+    const Eigen::Isometry3d truth = se3Exp(t * xi);
+    EXPECT_LT(rotationAngleBetween(r_t.value.linear(), truth.linear()), 1e-12);
+    EXPECT_NEAR((r_t.value.translation() - truth.translation()).norm(), sagitta, 1e-9) << t;
+  }
+}
+
 TEST(TimeSeries, ScalarInterpolationIsLinear) {
   ScalarTimeSeries series;
   series.append(0.0, 1.0);

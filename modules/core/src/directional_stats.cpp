@@ -96,9 +96,17 @@ TransformDispersion transformDispersion(std::span<const Eigen::Isometry3d> estim
     out.offset_mean(a) = o.mean;
     out.offset_std(a) = o.std;
   }
+  std::vector<double> norms;
   std::vector<double> distances;
+  norms.reserve(estimates.size());
   distances.reserve(estimates.size());
-  for (const Eigen::Isometry3d& T : estimates) distances.push_back((T.translation() - out.offset_mean).norm());
+  for (const Eigen::Isometry3d& T : estimates) {
+    norms.push_back(T.translation().norm());
+    distances.push_back((T.translation() - out.offset_mean).norm());
+  }
+  const MeanStd n = meanStd(norms);
+  out.offset_norm_mean = n.mean;
+  out.offset_norm_std = n.std;
   const MeanStd d = meanStd(distances);
   out.offset_distance_mean = d.mean;
   out.offset_distance_std = d.std;

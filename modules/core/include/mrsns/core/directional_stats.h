@@ -56,6 +56,9 @@ struct TransformDispersion {
   /// Translation ("axis offsets", mm): per component mean and sample std.
   Eigen::Vector3d offset_mean = Eigen::Vector3d::Zero();
   Eigen::Vector3d offset_std = Eigen::Vector3d::Zero();
+  /// Length of each translation (mm): mean and sample std.
+  double offset_norm_mean = 0.0;
+  double offset_norm_std = 0.0;
   /// Distance of each translation from offset_mean (mm): mean and sample std.
   double offset_distance_mean = 0.0;
   double offset_distance_std = 0.0;
