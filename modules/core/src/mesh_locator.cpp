@@ -1,0 +1,418 @@
+#include "mrsns/core/mesh_locator.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <numeric>
+#include <string>
+#include <utility>
+
+#include "mrsns/core/error.h"
+
+namespace mrsns {
+namespace {
+
+// Closest point on segment a-b; t receives the fraction along it.
+Eigen::Vector3d closestOnSegment(const Eigen::Vector3d& p, const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                                 double& t) {
+  const Eigen::Vector3d ab = b - a;
+  const double len2 = ab.squaredNorm();
+  t = len2 > 0.0 ? std::clamp((p - a).dot(ab) / len2, 0.0, 1.0) : 0.0;
+  return a + t * ab;
+}
+
+// A zero-area triangle has no interior region: its closest point lies on one
+// of its three edges.
+Eigen::Vector3d closestOnDegenerateTriangle(const Eigen::Vector3d& p, const Eigen::Vector3d& a,
+                                            const Eigen::Vector3d& b, const Eigen::Vector3d& c, Eigen::Vector3d& bary) {
+  double t = 0.0;
+  Eigen::Vector3d best = closestOnSegment(p, a, b, t);
+  bary = {1.0 - t, t, 0.0};
+  double best_d = (p - best).squaredNorm();
+  Eigen::Vector3d q = closestOnSegment(p, b, c, t);
+  if ((p - q).squaredNorm() < best_d) {
+    best = q;
+    best_d = (p - q).squaredNorm();
+    bary = {0.0, 1.0 - t, t};
+  }
+  q = closestOnSegment(p, c, a, t);
+  if ((p - q).squaredNorm() < best_d) {
+    best = q;
+    bary = {t, 0.0, 1.0 - t};
+  }
+  return best;
+}
+
+double boxDistanceSquared(const Eigen::Vector3d& p, const Eigen::Vector3d& lo, const Eigen::Vector3d& hi) {
+  const Eigen::Vector3d d = (lo - p).cwiseMax(p - hi).cwiseMax(0.0);
+  return d.squaredNorm();
+}
+
+// Slab test of the line o + t d, t in [t0, t1], against a box.
+bool lineHitsBox(const Eigen::Vector3d& o, const Eigen::Vector3d& d, const Eigen::Vector3d& inv_d, double t0, double t1,
+                 const Eigen::Vector3d& lo, const Eigen::Vector3d& hi) {
+  for (int i = 0; i < 3; ++i) {
+    if (d[i] == 0.0) {
+      if (o[i] < lo[i] || o[i] > hi[i]) return false;
+      continue;
+    }
+    double ta = (lo[i] - o[i]) * inv_d[i];
+    double tb = (hi[i] - o[i]) * inv_d[i];
+    if (ta > tb) std::swap(ta, tb);
+    t0 = std::max(t0, ta);
+    t1 = std::min(t1, tb);
+    if (t0 > t1) return false;
+  }
+  return true;
+}
+
+double angleBetween(const Eigen::Vector3d& u, const Eigen::Vector3d& v) {
+  return std::atan2(u.cross(v).norm(), u.dot(v));
+}
+
+}  // namespace
+
+Eigen::Vector3d closestPointOnTriangle(const Eigen::Vector3d& p, const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                                       const Eigen::Vector3d& c, Eigen::Vector3d* barycentric) {
+  Eigen::Vector3d bary_storage;
+  Eigen::Vector3d& bary = barycentric != nullptr ? *barycentric : bary_storage;
+  const Eigen::Vector3d ab = b - a;
+  const Eigen::Vector3d ac = c - a;
+  const Eigen::Vector3d ap = p - a;
+  const double d1 = ab.dot(ap);
+  const double d2 = ac.dot(ap);
+  if (d1 <= 0.0 && d2 <= 0.0) {
+    bary = {1.0, 0.0, 0.0};
+    return a;
+  }
+  const Eigen::Vector3d bp = p - b;
+  const double d3 = ab.dot(bp);
+  const double d4 = ac.dot(bp);
+  if (d3 >= 0.0 && d4 <= d3) {
+    bary = {0.0, 1.0, 0.0};
+    return b;
+  }
+  const double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0) {
+    const double v = d1 / (d1 - d3);
+    bary = {1.0 - v, v, 0.0};
+    return a + v * ab;
+  }
+  const Eigen::Vector3d cp = p - c;
+  const double d5 = ab.dot(cp);
+  const double d6 = ac.dot(cp);
+  if (d6 >= 0.0 && d5 <= d6) {
+    bary = {0.0, 0.0, 1.0};
+    return c;
+  }
+  const double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0) {
+    const double w = d2 / (d2 - d6);
+    bary = {1.0 - w, 0.0, w};
+    return a + w * ac;
+  }
+  const double va = d3 * d6 - d5 * d4;
+  if (va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0) {
+    const double w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+    bary = {0.0, 1.0 - w, w};
+    return b + w * (c - b);
+  }
+  const double sum = va + vb + vc;
+  if (!(sum > 0.0)) return closestOnDegenerateTriangle(p, a, b, c, bary);
+  const double v = vb / sum;
+  const double w = vc / sum;
+  bary = {1.0 - v - w, v, w};
+  return a + v * ab + w * ac;
+}
+
+MeshLocator::MeshLocator(const TriangleMesh& mesh, const MeshLocatorOptions& options)
+    : vertices_(mesh.vertices), faces_(mesh.faces) {
+  const std::string what = mesh.name.empty() ? std::string("MeshLocator mesh") : "MeshLocator mesh '" + mesh.name + "'";
+  validateMesh(mesh, what);
+  if (mesh.faceCount() == 0) {
+    throw InvalidArgumentError(what + ": has no faces; a surface query needs a triangle mesh");
+  }
+  if (options.max_leaf_faces < 1) {
+    throw InvalidArgumentError("MeshLocatorOptions::max_leaf_faces must be >= 1 (got " +
+                               std::to_string(options.max_leaf_faces) + ")");
+  }
+  closed_ = isClosed(mesh);
+  face_normals_ = faceNormals(mesh);
+  scale_ = std::max(boundingBox(mesh).diagonal().norm(), 1e-300);
+  build(options);
+  computePseudoNormals();
+}
+
+void MeshLocator::build(const MeshLocatorOptions& options) {
+  const Eigen::Index m = faces_.rows();
+  std::vector<Eigen::Vector3d> centroid(static_cast<std::size_t>(m));
+  std::vector<Eigen::Vector3d> face_lo(static_cast<std::size_t>(m));
+  std::vector<Eigen::Vector3d> face_hi(static_cast<std::size_t>(m));
+  for (Eigen::Index f = 0; f < m; ++f) {
+    const Eigen::Vector3d a = vertices_.row(faces_(f, 0)).transpose();
+    const Eigen::Vector3d b = vertices_.row(faces_(f, 1)).transpose();
+    const Eigen::Vector3d c = vertices_.row(faces_(f, 2)).transpose();
+    const auto i = static_cast<std::size_t>(f);
+    face_lo[i] = a.cwiseMin(b).cwiseMin(c);
+    face_hi[i] = a.cwiseMax(b).cwiseMax(c);
+    centroid[i] = (a + b + c) / 3.0;
+  }
+  order_.resize(static_cast<std::size_t>(m));
+  std::iota(order_.begin(), order_.end(), 0);
+  nodes_.clear();
+  nodes_.reserve(static_cast<std::size_t>(2 * m / options.max_leaf_faces + 2));
+
+  // Median split on the longest axis of the centroid bounds: O(M log M), a
+  // balanced tree of depth log2(M), and good enough for closest-point queries.
+  struct Task {
+    std::int32_t node, begin, end;
+  };
+  std::vector<Task> tasks;
+  nodes_.push_back({});
+  tasks.push_back({0, 0, static_cast<std::int32_t>(m)});
+  while (!tasks.empty()) {
+    const Task task = tasks.back();
+    tasks.pop_back();
+    Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
+    Eigen::Vector3d hi = -lo;
+    Eigen::Vector3d clo = lo;
+    Eigen::Vector3d chi = hi;
+    for (std::int32_t i = task.begin; i < task.end; ++i) {
+      const auto f = static_cast<std::size_t>(order_[static_cast<std::size_t>(i)]);
+      lo = lo.cwiseMin(face_lo[f]);
+      hi = hi.cwiseMax(face_hi[f]);
+      clo = clo.cwiseMin(centroid[f]);
+      chi = chi.cwiseMax(centroid[f]);
+    }
+    Node& node = nodes_[static_cast<std::size_t>(task.node)];
+    node.lo = lo;
+    node.hi = hi;
+    const std::int32_t count = task.end - task.begin;
+    if (count <= options.max_leaf_faces) {
+      node.first = task.begin;
+      node.count = count;
+      continue;
+    }
+    int axis = 0;
+    (chi - clo).maxCoeff(&axis);
+    const std::int32_t mid = task.begin + count / 2;
+    std::nth_element(order_.begin() + task.begin, order_.begin() + mid, order_.begin() + task.end,
+                     [&](std::int32_t x, std::int32_t y) {
+                       return centroid[static_cast<std::size_t>(x)][axis] < centroid[static_cast<std::size_t>(y)][axis];
+                     });
+    const auto left = static_cast<std::int32_t>(nodes_.size());
+    node.left = left;
+    node.right = left + 1;
+    node.count = 0;
+    nodes_.push_back({});  // `node` may dangle from here on
+    nodes_.push_back({});
+    tasks.push_back({left, task.begin, mid});
+    tasks.push_back({left + 1, mid, task.end});
+  }
+}
+
+void MeshLocator::computePseudoNormals() {
+  const Eigen::Index m = faces_.rows();
+  vertex_pseudo_normals_ = PointsN3::Zero(vertices_.rows(), 3);
+  for (Eigen::Index f = 0; f < m; ++f) {
+    const Eigen::RowVector3d n = face_normals_.row(f);
+    for (int k = 0; k < 3; ++k) {
+      const Eigen::Vector3d p = vertices_.row(faces_(f, k)).transpose();
+      const Eigen::Vector3d u = vertices_.row(faces_(f, (k + 1) % 3)).transpose() - p;
+      const Eigen::Vector3d v = vertices_.row(faces_(f, (k + 2) % 3)).transpose() - p;
+      vertex_pseudo_normals_.row(faces_(f, k)) += angleBetween(u, v) * n;
+    }
+  }
+  // Edge pseudo-normal: the sum of the normals of the faces sharing the edge.
+  // Grouping by sorting keeps the build fast for 100k+ faces.
+  const std::int64_t nv = vertices_.rows();
+  std::vector<std::pair<std::int64_t, std::int32_t>> slots;
+  slots.reserve(static_cast<std::size_t>(3 * m));
+  for (Eigen::Index f = 0; f < m; ++f) {
+    for (int k = 0; k < 3; ++k) {
+      const std::int64_t a = faces_(f, k);
+      const std::int64_t b = faces_(f, (k + 1) % 3);
+      slots.emplace_back(std::min(a, b) * nv + std::max(a, b), static_cast<std::int32_t>(3 * f + k));
+    }
+  }
+  std::sort(slots.begin(), slots.end());
+  edge_pseudo_normals_.assign(slots.size(), Eigen::Vector3d::Zero());
+  for (std::size_t i = 0; i < slots.size();) {
+    std::size_t j = i;
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    for (; j < slots.size() && slots[j].first == slots[i].first; ++j) {
+      sum += face_normals_.row(slots[j].second / 3).transpose();
+    }
+    for (std::size_t k = i; k < j; ++k) edge_pseudo_normals_[static_cast<std::size_t>(slots[k].second)] = sum;
+    i = j;
+  }
+}
+
+void MeshLocator::testFace(const Eigen::Vector3d& query, Eigen::Index f, SurfacePoint& best) const {
+  Eigen::Vector3d bary;
+  const Eigen::Vector3d p =
+      closestPointOnTriangle(query, vertices_.row(faces_(f, 0)).transpose(), vertices_.row(faces_(f, 1)).transpose(),
+                             vertices_.row(faces_(f, 2)).transpose(), &bary);
+  const double d2 = (p - query).squaredNorm();
+  // best.distance holds the squared distance during the search.
+  if (d2 < best.distance) {
+    best.distance = d2;
+    best.point = p;
+    best.face = f;
+    best.barycentric = bary;
+  }
+}
+
+SurfacePoint MeshLocator::closestPoint(const Eigen::Vector3d& query) const {
+  if (!query.allFinite()) {
+    throw InvalidArgumentError("MeshLocator::closestPoint: the query point is not finite; pass a point without NaN");
+  }
+  SurfacePoint best;
+  // Depth-first, nearer child first; the tree depth is at most ~log2(M) + 1,
+  // and each level leaves at most one pending sibling on the stack.
+  std::array<std::pair<std::int32_t, double>, 128> stack{};
+  int top = 0;
+  stack[top++] = {0, boxDistanceSquared(query, nodes_[0].lo, nodes_[0].hi)};
+  while (top > 0) {
+    const auto [index, bound] = stack[--top];
+    if (bound >= best.distance) continue;
+    const Node& node = nodes_[static_cast<std::size_t>(index)];
+    if (node.count > 0) {
+      for (std::int32_t i = node.first; i < node.first + node.count; ++i) {
+        testFace(query, order_[static_cast<std::size_t>(i)], best);
+      }
+      continue;
+    }
+    const Node& l = nodes_[static_cast<std::size_t>(node.left)];
+    const Node& r = nodes_[static_cast<std::size_t>(node.right)];
+    const double dl = boxDistanceSquared(query, l.lo, l.hi);
+    const double dr = boxDistanceSquared(query, r.lo, r.hi);
+    if (dl <= dr) {
+      if (dr < best.distance) stack[top++] = {node.right, dr};
+      if (dl < best.distance) stack[top++] = {node.left, dl};
+    } else {
+      if (dl < best.distance) stack[top++] = {node.left, dl};
+      if (dr < best.distance) stack[top++] = {node.right, dr};
+    }
+  }
+  best.distance = std::sqrt(best.distance);
+  return best;
+}
+
+SurfacePoint MeshLocator::closestPointBruteForce(const Eigen::Vector3d& query) const {
+  SurfacePoint best;
+  for (Eigen::Index f = 0; f < faces_.rows(); ++f) testFace(query, f, best);
+  best.distance = std::sqrt(best.distance);
+  return best;
+}
+
+SignedSurfacePoint MeshLocator::signedClosestPoint(const Eigen::Vector3d& query, bool allow_open) const {
+  if (!closed_ && !allow_open) {
+    throw ComputationError(
+        "MeshLocator::signedClosestPoint: the mesh is not closed (some edge is not shared by exactly two "
+        "consistently oriented faces), so inside/outside is undefined; close the mesh or pass allow_open");
+  }
+  SignedSurfacePoint result;
+  static_cast<SurfacePoint&>(result) = closestPoint(query);
+  const Eigen::Index f = result.face;
+  const Eigen::Vector3d& w = result.barycentric;
+  // Ericson's routine returns exact zeros on edge and vertex regions, which
+  // tells which feature (face, edge, vertex) holds the closest point.
+  const int zeros = (w[0] == 0.0) + (w[1] == 0.0) + (w[2] == 0.0);
+  Eigen::Vector3d normal;
+  if (zeros == 0) {
+    normal = face_normals_.row(f).transpose();
+  } else if (zeros == 1) {
+    int z = 0;
+    while (w[z] != 0.0) ++z;
+    normal = edge_pseudo_normals_[static_cast<std::size_t>(3 * f + (z + 1) % 3)];
+  } else {
+    int k = 0;
+    while (w[k] == 0.0) ++k;
+    normal = vertex_pseudo_normals_.row(faces_(f, k)).transpose();
+  }
+  const double side = (query - result.point).dot(normal);
+  result.signed_distance = side < 0.0 ? -result.distance : result.distance;
+  return result;
+}
+
+std::vector<RayHit> MeshLocator::intersectLine(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction,
+                                               double t_min, double t_max) const {
+  if (!origin.allFinite() || !direction.allFinite() || !(direction.squaredNorm() > 0.0)) {
+    throw InvalidArgumentError(
+        "MeshLocator::intersectLine: origin and direction must be finite and the direction non-zero");
+  }
+  if (std::isnan(t_min) || std::isnan(t_max)) {
+    throw InvalidArgumentError("MeshLocator::intersectLine: t_min/t_max must not be NaN");
+  }
+  const double dir_norm = direction.norm();
+  // Hits on shared edges are found by both faces; accept barycentric
+  // coordinates a hair outside [0, 1] so none slips between, then merge.
+  constexpr double kBaryTolerance = 1e-12;
+  const double t_tolerance = 1e-9 * scale_ / dir_norm;
+  const Eigen::Vector3d inv_d = direction.cwiseInverse();
+  const Eigen::Vector3d pad = Eigen::Vector3d::Constant(1e-9 * scale_);
+
+  std::vector<RayHit> hits;
+  std::array<std::int32_t, 128> stack{};
+  int top = 0;
+  stack[top++] = 0;
+  while (top > 0) {
+    const Node& node = nodes_[static_cast<std::size_t>(stack[--top])];
+    if (!lineHitsBox(origin, direction, inv_d, t_min - t_tolerance, t_max + t_tolerance, node.lo - pad,
+                     node.hi + pad)) {
+      continue;
+    }
+    if (node.count == 0) {
+      stack[top++] = node.left;
+      stack[top++] = node.right;
+      continue;
+    }
+    for (std::int32_t i = node.first; i < node.first + node.count; ++i) {
+      const std::int32_t f = order_[static_cast<std::size_t>(i)];
+      // Moller-Trumbore.
+      const Eigen::Vector3d a = vertices_.row(faces_(f, 0)).transpose();
+      const Eigen::Vector3d e1 = vertices_.row(faces_(f, 1)).transpose() - a;
+      const Eigen::Vector3d e2 = vertices_.row(faces_(f, 2)).transpose() - a;
+      const Eigen::Vector3d pvec = direction.cross(e2);
+      const double det = e1.dot(pvec);
+      // Parallel (or degenerate) faces: a line in the face's plane has no single crossing.
+      if (std::abs(det) <= 1e-14 * e1.norm() * e2.norm() * dir_norm) continue;
+      const double inv_det = 1.0 / det;
+      const Eigen::Vector3d tvec = origin - a;
+      const double u = tvec.dot(pvec) * inv_det;
+      if (u < -kBaryTolerance || u > 1.0 + kBaryTolerance) continue;
+      const Eigen::Vector3d qvec = tvec.cross(e1);
+      const double v = direction.dot(qvec) * inv_det;
+      if (v < -kBaryTolerance || u + v > 1.0 + kBaryTolerance) continue;
+      const double t = e2.dot(qvec) * inv_det;
+      if (t < t_min || t > t_max) continue;
+      RayHit hit;
+      hit.t = t;
+      hit.point = origin + t * direction;
+      hit.face = f;
+      hit.barycentric = {1.0 - u - v, u, v};
+      hit.entering = det > 0.0;  // det = -d . (e1 x e2)
+      hits.push_back(hit);
+    }
+  }
+  std::sort(hits.begin(), hits.end(), [](const RayHit& x, const RayHit& y) { return x.t < y.t; });
+  // Merge duplicates from shared edges/vertices: within a cluster of equal t
+  // keep one entering and one leaving hit (a tangent touch keeps both).
+  std::vector<RayHit> merged;
+  merged.reserve(hits.size());
+  for (std::size_t i = 0; i < hits.size();) {
+    std::size_t j = i;
+    bool have_in = false;
+    bool have_out = false;
+    for (; j < hits.size() && hits[j].t - hits[i].t <= t_tolerance; ++j) {
+      bool& have = hits[j].entering ? have_in : have_out;
+      if (!have) merged.push_back(hits[j]);
+      have = true;
+    }
+    i = j;
+  }
+  return merged;
+}
+
+}  // namespace mrsns

@@ -1,0 +1,173 @@
+#include "mrsns/core/plane_intersection.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <string>
+#include <unordered_map>
+
+#include "mrsns/core/error.h"
+#include "mrsns/core/mesh_ops.h"
+
+namespace mrsns {
+namespace {
+
+struct Segment {
+  std::int32_t from = -1;  // node on the face's "+ to -" edge
+  std::int32_t to = -1;    // node on the face's "- to +" edge
+};
+
+// Walks a chain of segments starting at `start`, marking them used; returns
+// the node sequence and how many segments were walked along their direction.
+std::vector<std::int32_t> walk(std::int32_t start, const std::vector<Segment>& segments,
+                               const std::vector<std::vector<std::int32_t>>& incident, std::vector<char>& used,
+                               int& forward_votes) {
+  std::vector<std::int32_t> nodes{start};
+  std::int32_t current = start;
+  for (;;) {
+    std::int32_t next_segment = -1;
+    for (const std::int32_t s : incident[static_cast<std::size_t>(current)]) {
+      if (!used[static_cast<std::size_t>(s)]) {
+        next_segment = s;
+        break;
+      }
+    }
+    if (next_segment < 0) break;
+    used[static_cast<std::size_t>(next_segment)] = 1;
+    const Segment& seg = segments[static_cast<std::size_t>(next_segment)];
+    const bool forward = seg.from == current;
+    forward_votes += forward ? 1 : -1;
+    current = forward ? seg.to : seg.from;
+    nodes.push_back(current);
+    if (current == start) break;
+  }
+  return nodes;
+}
+
+}  // namespace
+
+std::vector<Polyline3d> intersectMeshWithPlane(const TriangleMesh& mesh, const Eigen::Vector3d& plane_point,
+                                               const Eigen::Vector3d& plane_normal, const PlaneCutOptions& options) {
+  validateMesh(mesh, mesh.name.empty() ? std::string("intersectMeshWithPlane mesh")
+                                       : "intersectMeshWithPlane mesh '" + mesh.name + "'");
+  if (!plane_point.allFinite() || !plane_normal.allFinite() || !(plane_normal.squaredNorm() > 0.0)) {
+    throw InvalidArgumentError(
+        "intersectMeshWithPlane: the plane point and normal must be finite and the normal non-zero");
+  }
+  const Eigen::Vector3d n = plane_normal.normalized();
+  const Eigen::VectorXd d = (mesh.vertices.rowwise() - plane_point.transpose()) * n;
+  // A vertex on the plane counts as positive: each edge then either crosses
+  // or not, with no third case, and the contour passes through that vertex.
+  auto positive = [&](std::int32_t v) { return d(v) >= 0.0; };
+
+  std::unordered_map<std::int64_t, std::int32_t> node_of_edge;
+  std::vector<Eigen::Vector3d> node_points;
+  const std::int64_t nv = mesh.vertexCount();
+  auto nodeOnEdge = [&](std::int32_t a, std::int32_t b) {
+    if (a > b) std::swap(a, b);  // canonical order: both faces compute the same point
+    const std::int64_t key = static_cast<std::int64_t>(a) * nv + b;
+    const auto [it, inserted] = node_of_edge.try_emplace(key, static_cast<std::int32_t>(node_points.size()));
+    if (inserted) {
+      const double t = d(a) / (d(a) - d(b));
+      const Eigen::Vector3d va = mesh.vertices.row(a).transpose();
+      const Eigen::Vector3d vb = mesh.vertices.row(b).transpose();
+      node_points.push_back(va + t * (vb - va));
+    }
+    return it->second;
+  };
+
+  std::vector<Segment> segments;
+  for (Eigen::Index f = 0; f < mesh.faceCount(); ++f) {
+    Segment seg;
+    for (int k = 0; k < 3; ++k) {
+      const std::int32_t a = mesh.faces(f, k);
+      const std::int32_t b = mesh.faces(f, (k + 1) % 3);
+      if (positive(a) && !positive(b)) seg.from = nodeOnEdge(a, b);
+      if (!positive(a) && positive(b)) seg.to = nodeOnEdge(a, b);
+    }
+    if (seg.from >= 0 && seg.to >= 0) segments.push_back(seg);
+  }
+
+  std::vector<std::vector<std::int32_t>> incident(node_points.size());
+  for (std::size_t s = 0; s < segments.size(); ++s) {
+    incident[static_cast<std::size_t>(segments[s].from)].push_back(static_cast<std::int32_t>(s));
+    incident[static_cast<std::size_t>(segments[s].to)].push_back(static_cast<std::int32_t>(s));
+  }
+
+  std::vector<char> used(segments.size(), 0);
+  std::vector<Polyline3d> contours;
+  auto emit = [&](std::int32_t start) {
+    int votes = 0;
+    std::vector<std::int32_t> nodes = walk(start, segments, incident, used, votes);
+    if (nodes.size() < 2) return;
+    Polyline3d line;
+    line.closed = nodes.size() > 2 && nodes.back() == nodes.front();
+    if (line.closed) nodes.pop_back();
+    for (const std::int32_t node : nodes) {
+      const Eigen::Vector3d& p = node_points[static_cast<std::size_t>(node)];
+      if (!line.points.empty() && (p - line.points.back()).norm() <= options.merge_distance) continue;
+      line.points.push_back(p);
+    }
+    if (line.closed && line.points.size() > 1 &&
+        (line.points.back() - line.points.front()).norm() <= options.merge_distance) {
+      line.points.pop_back();
+    }
+    if (line.points.size() < 2) return;  // the plane only touched the mesh at a point
+    if (votes < 0) std::reverse(line.points.begin(), line.points.end());
+    contours.push_back(std::move(line));
+  };
+  // Open chains first (they start at a node with one segment, on a mesh
+  // boundary), so a loop walk never starts in the middle of a chain.
+  for (std::size_t node = 0; node < incident.size(); ++node) {
+    if (incident[node].size() % 2 == 1) {
+      const bool pending = std::any_of(incident[node].begin(), incident[node].end(),
+                                       [&](std::int32_t s) { return !used[static_cast<std::size_t>(s)]; });
+      if (pending) emit(static_cast<std::int32_t>(node));
+    }
+  }
+  for (std::size_t s = 0; s < segments.size(); ++s) {
+    if (!used[s]) emit(segments[s].from);
+  }
+  return contours;
+}
+
+double polylineLength(const Polyline3d& polyline) {
+  const auto& p = polyline.points;
+  double length = 0.0;
+  for (std::size_t i = 1; i < p.size(); ++i) length += (p[i] - p[i - 1]).norm();
+  if (polyline.closed && p.size() > 1) length += (p.front() - p.back()).norm();
+  return length;
+}
+
+Polyline3d resamplePolyline(const Polyline3d& polyline, int count) {
+  const int min_count = polyline.closed ? 1 : 2;
+  if (count < min_count) {
+    throw InvalidArgumentError("resamplePolyline: count " + std::to_string(count) + " is too small; an " +
+                               (polyline.closed ? "closed" : "open") + " polyline needs at least " +
+                               std::to_string(min_count) + " points");
+  }
+  std::vector<Eigen::Vector3d> pts = polyline.points;
+  if (polyline.closed && !pts.empty()) pts.push_back(pts.front());
+  std::vector<double> cumulative(pts.size(), 0.0);
+  for (std::size_t i = 1; i < pts.size(); ++i) cumulative[i] = cumulative[i - 1] + (pts[i] - pts[i - 1]).norm();
+  const double length = cumulative.empty() ? 0.0 : cumulative.back();
+  if (!(length > 0.0) || !std::isfinite(length)) {
+    throw InvalidArgumentError("resamplePolyline: the polyline has " + std::to_string(polyline.points.size()) +
+                               " points and zero (or non-finite) length; nothing to resample");
+  }
+  Polyline3d out;
+  out.closed = polyline.closed;
+  out.points.reserve(static_cast<std::size_t>(count));
+  const double step = polyline.closed ? length / count : length / (count - 1);
+  std::size_t seg = 1;
+  for (int j = 0; j < count; ++j) {
+    const double s = (!polyline.closed && j == count - 1) ? length : j * step;
+    while (seg + 1 < pts.size() && cumulative[seg] < s) ++seg;
+    const double seg_len = cumulative[seg] - cumulative[seg - 1];
+    const double t = seg_len > 0.0 ? std::clamp((s - cumulative[seg - 1]) / seg_len, 0.0, 1.0) : 0.0;
+    out.points.push_back(pts[seg - 1] + t * (pts[seg] - pts[seg - 1]));
+  }
+  return out;
+}
+
+}  // namespace mrsns
