@@ -28,12 +28,12 @@ inline std::filesystem::path scratchDirectory(const std::string& name) {
 
 }  // namespace mrsns::test
 
-/// Declares `path` as the data file `relative`, or skips the test.
-#define MRSNS_REQUIRE_DATA(path, relative)                                                       \
-  const auto path##_found = ::mrsns::findDataFile(relative);                                     \
-  if (!path##_found) {                                                                           \
+/// Declares `var` (a std::filesystem::path) as the data file `relative`, or skips the test.
+#define MRSNS_REQUIRE_DATA(var, relative)                                                        \
+  const auto var##_found = ::mrsns::findDataFile(relative);                                     \
+  if (!var##_found) {                                                                           \
     GTEST_SKIP() << "shared data file '" << (relative) << "' not found under "                   \
                  << ::mrsns::dataDirectory()                                                     \
                  << " (set MRSNS_DATA_DIR or the CMake cache variable MRSNS_DATA_DIR)";          \
   }                                                                                              \
-  const std::filesystem::path path = *path##_found
+  const std::filesystem::path var = *var##_found
