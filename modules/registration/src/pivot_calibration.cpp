@@ -1,0 +1,166 @@
+#include "mrsns/registration/pivot_calibration.h"
+
+#include <Eigen/SVD>
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <random>
+#include <string>
+
+#include "mrsns/core/error.h"
+#include "mrsns/core/rigid.h"
+#include "mrsns/core/rotation_average.h"
+
+namespace mrsns::registration {
+namespace {
+
+constexpr double kRadToDeg = 180.0 / 3.14159265358979323846;
+
+struct LinearFit {
+  Eigen::Vector3d tip_marker;
+  Eigen::Vector3d pivot_tracker;
+  double condition_number;
+};
+
+// Solves [R_i  -I] [tip; pivot] = -t_i in the least-squares sense over the
+// poses with use[i] set.
+LinearFit solveLinear(std::span<const Eigen::Isometry3d> poses, const std::vector<bool>& use) {
+  const auto n = static_cast<Eigen::Index>(std::count(use.begin(), use.end(), true));
+  Eigen::MatrixXd a(3 * n, 6);
+  Eigen::VectorXd b(3 * n);
+  Eigen::Index row = 0;
+  for (std::size_t i = 0; i < poses.size(); ++i) {
+    if (!use[i]) continue;
+    a.block<3, 3>(row, 0) = poses[i].linear();
+    a.block<3, 3>(row, 3) = -Eigen::Matrix3d::Identity();
+    b.segment<3>(row) = -poses[i].translation();
+    row += 3;
+  }
+  Eigen::JacobiSVD<Eigen::MatrixXd> svd(a, Eigen::ComputeThinU | Eigen::ComputeThinV);
+  const Eigen::VectorXd x = svd.solve(b);
+  const auto& s = svd.singularValues();
+  LinearFit fit;
+  fit.tip_marker = x.head<3>();
+  fit.pivot_tracker = x.tail<3>();
+  fit.condition_number = s(s.size() - 1) > 0.0 ? s(0) / s(s.size() - 1) : std::numeric_limits<double>::infinity();
+  return fit;
+}
+
+std::vector<double> residuals(std::span<const Eigen::Isometry3d> poses, const Eigen::Vector3d& tip,
+                              const Eigen::Vector3d& pivot) {
+  std::vector<double> r(poses.size());
+  for (std::size_t i = 0; i < poses.size(); ++i) r[i] = (poses[i] * tip - pivot).norm();
+  return r;
+}
+
+double rotationRange(std::span<const Eigen::Isometry3d> poses, const std::vector<bool>& use) {
+  std::vector<Eigen::Matrix3d> rotations;
+  for (std::size_t i = 0; i < poses.size(); ++i) {
+    if (use[i]) rotations.push_back(poses[i].linear());
+  }
+  RotationAverageOptions options;
+  options.method = RotationMeanMethod::kChordalL2;
+  return averageRotations(rotations, options).max_angle;
+}
+
+}  // namespace
+
+PivotResult calibratePivot(std::span<const Eigen::Isometry3d> tracker_T_marker, const PivotOptions& options) {
+  const auto n = tracker_T_marker.size();
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!tracker_T_marker[i].matrix().allFinite() || !isRigid(tracker_T_marker[i].matrix(), 1e-4)) {
+      throw InvalidArgumentError("pivot calibration: pose " + std::to_string(i) +
+                                 " is not a finite rigid transform; drop frames where the tool was not tracked");
+    }
+  }
+  if (static_cast<int>(n) < options.min_poses) {
+    throw ComputationError("pivot calibration needs at least " + std::to_string(options.min_poses) + " poses, got " +
+                           std::to_string(n) + ": record longer while pivoting the tool");
+  }
+  std::vector<bool> use(n, true);
+  const double range_all = rotationRange(tracker_T_marker, use);
+  if (range_all < options.min_rotation_range) {
+    throw ComputationError("pivot calibration: the tool rotated only " + std::to_string(range_all * kRadToDeg) +
+                           " deg (at least " + std::to_string(options.min_rotation_range * kRadToDeg) +
+                           " deg needed): pivot the tool further, in two directions, keeping the tip in the divot");
+  }
+
+  if (options.robust) {
+    // RANSAC on 3-pose subsets (2 poses determine the tip only when their
+    // relative rotation is generic; 3 are far less often degenerate).
+    std::mt19937 rng(options.ransac_seed);
+    std::uniform_int_distribution<std::size_t> pick(0, n - 1);
+    int best_count = -1;
+    std::vector<bool> best;
+    for (int it = 0; it < options.ransac_iterations; ++it) {
+      std::vector<bool> sample(n, false);
+      int chosen = 0;
+      while (chosen < 3) {
+        const auto k = pick(rng);
+        if (!sample[k]) {
+          sample[k] = true;
+          ++chosen;
+        }
+      }
+      const auto fit = solveLinear(tracker_T_marker, sample);
+      if (!std::isfinite(fit.condition_number) || fit.condition_number > 1e6) continue;
+      const auto r = residuals(tracker_T_marker, fit.tip_marker, fit.pivot_tracker);
+      std::vector<bool> inl(n);
+      int count = 0;
+      for (std::size_t i = 0; i < n; ++i) {
+        inl[i] = r[i] <= options.inlier_threshold_mm;
+        count += inl[i] ? 1 : 0;
+      }
+      if (count > best_count) {
+        best_count = count;
+        best = inl;
+      }
+    }
+    if (best_count < options.min_poses) {
+      throw ComputationError("robust pivot calibration: no consistent pivot found (best " +
+                             std::to_string(std::max(best_count, 0)) + " of " + std::to_string(n) +
+                             " poses within " + std::to_string(options.inlier_threshold_mm) +
+                             " mm): check that the tip stayed in the divot, or raise the inlier threshold");
+    }
+    use = best;
+    // Refit on the inliers until the set is stable.
+    for (int it = 0; it < 10; ++it) {
+      const auto fit = solveLinear(tracker_T_marker, use);
+      const auto r = residuals(tracker_T_marker, fit.tip_marker, fit.pivot_tracker);
+      std::vector<bool> next(n);
+      for (std::size_t i = 0; i < n; ++i) next[i] = r[i] <= options.inlier_threshold_mm;
+      if (std::count(next.begin(), next.end(), true) < options.min_poses || next == use) break;
+      use = next;
+    }
+  }
+
+  const auto fit = solveLinear(tracker_T_marker, use);
+  PivotResult result;
+  result.tip_marker = fit.tip_marker;
+  result.pivot_tracker = fit.pivot_tracker;
+  result.condition_number = fit.condition_number;
+  result.rotation_range = rotationRange(tracker_T_marker, use);
+  if (!std::isfinite(fit.condition_number) || fit.condition_number > options.max_condition_number) {
+    throw ComputationError(
+        "pivot calibration is ill-conditioned (condition number " + std::to_string(fit.condition_number) +
+        "): the tool seems to have rotated about one axis only; pivot it in two perpendicular directions");
+  }
+  if (result.rotation_range < options.min_rotation_range) {
+    throw ComputationError("pivot calibration: the consistent poses cover only " +
+                           std::to_string(result.rotation_range * kRadToDeg) +
+                           " deg of rotation: pivot the tool further");
+  }
+  result.residuals_mm = residuals(tracker_T_marker, fit.tip_marker, fit.pivot_tracker);
+  result.inliers = use;
+  double sum_sq = 0.0;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!use[i]) continue;
+    ++result.inlier_count;
+    sum_sq += result.residuals_mm[i] * result.residuals_mm[i];
+    result.max_residual_mm = std::max(result.max_residual_mm, result.residuals_mm[i]);
+  }
+  result.rms_mm = std::sqrt(sum_sq / result.inlier_count);
+  return result;
+}
+
+}  // namespace mrsns::registration
