@@ -80,6 +80,7 @@ PointNeighbor PointLocator::nearest(const Eigen::Vector3d& query) const {
 std::vector<PointNeighbor> PointLocator::kNearest(const Eigen::Vector3d& query, std::size_t k) const {
   checkQuery(query);
   k = std::min<std::size_t>(k, static_cast<std::size_t>(impl_->points.rows()));
+  if (k == 0) return {};  // nanoflann's result set needs capacity >= 1
   std::vector<std::uint32_t> indices(k);
   std::vector<double> squared(k);
   const std::size_t found = impl_->tree->knnSearch(query.data(), k, indices.data(), squared.data());
