@@ -233,6 +233,15 @@ TEST(RotationAverage, InvalidInputsAreRefused) {
   bad = good;
   bad[1] *= 1.01;  // scaled, not orthonormal
   EXPECT_THROW(averageRotations(bad), InvalidArgumentError);
+  // Slightly off (as printed with 6 digits) is accepted and projected onto SO(3) first.
+  bad = good;
+  bad[1] *= 1.0 + 1e-6;
+  const RotationAverageResult r = averageRotations(bad);
+  EXPECT_LT((r.mean.transpose() * r.mean - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff(), 1e-14);
+  EXPECT_NEAR(r.max_angle, 0.05, 1e-12);
+  RotationAverageOptions strict;
+  strict.orthonormality_tolerance = 1e-9;
+  EXPECT_THROW(averageRotations(bad, strict), InvalidArgumentError);
   bad = good;
   bad[1] = -bad[1];  // reflection
   EXPECT_THROW(averageRotations(bad), InvalidArgumentError);

@@ -34,14 +34,22 @@ std::vector<double> checkedWeights(std::size_t n, std::span<const double> weight
   return {weights.begin(), weights.end()};
 }
 
-void checkRotation(const Eigen::Matrix3d& R, std::size_t i, double tol, const char* where) {
+// Inputs closer than this to SO(3) are used as given; others (within the caller's tolerance)
+// are projected first, so that Log and the optimality conditions hold to full precision.
+constexpr double kExactOrthonormality = 1e-12;
+
+// Returns the deviation |R^T R - I|_max of a finite, proper rotation; throws otherwise.
+double checkRotation(const Eigen::Matrix3d& R, std::size_t i, double tol, const char* where) {
   if (!R.allFinite()) {
     throw InvalidArgumentError(std::string(where) + ": rotation " + std::to_string(i) + " contains NaN or infinity");
   }
-  if ((R.transpose() * R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() > tol || R.determinant() <= 0.0) {
+  const double deviation = (R.transpose() * R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
+  if (deviation > tol || R.determinant() <= 0.0) {
     throw InvalidArgumentError(std::string(where) + ": rotation " + std::to_string(i) +
-                               " is not a proper orthonormal matrix; orthonormalize it (nearestRotation) first");
+                               " is not a proper orthonormal matrix within " + std::to_string(tol) +
+                               "; orthonormalize it (nearestRotation) first or raise orthonormality_tolerance");
   }
+  return deviation;
 }
 
 // Projection onto SO(3) that tolerates a singular or reflected sum (widely spread inputs):
@@ -138,8 +146,16 @@ RotationAverageResult averageRotations(std::span<const Eigen::Matrix3d> rotation
   if (options.max_iterations < 1 || !(options.step_tolerance > 0.0)) {
     throw InvalidArgumentError("averageRotations: max_iterations must be >= 1 and step_tolerance > 0");
   }
+  std::vector<Eigen::Matrix3d> projected;
   for (std::size_t i = 0; i < rotations.size(); ++i) {
-    checkRotation(rotations[i], i, options.orthonormality_tolerance, kWhere);
+    if (checkRotation(rotations[i], i, options.orthonormality_tolerance, kWhere) > kExactOrthonormality &&
+        projected.empty()) {
+      projected.assign(rotations.begin(), rotations.end());
+    }
+  }
+  if (!projected.empty()) {
+    for (Eigen::Matrix3d& R : projected) R = projectToRotation(R);
+    rotations = projected;
   }
   const std::vector<double> w = checkedWeights(rotations.size(), weights, kWhere);
 

@@ -37,8 +37,9 @@ struct RotationAverageOptions {
   /// Weiszfeld only: inputs closer than this (radians) to the current estimate count as
   /// coinciding with it (Vardi-Zhang step) instead of dividing by a zero distance.
   double l1_min_residual = 1e-12;
-  /// Inputs whose |R^T R - I| exceeds this are refused (orthonormalize them first).
-  double orthonormality_tolerance = 1e-6;
+  /// Inputs whose max |R^T R - I| exceeds this are refused; inputs within it (e.g. matrices
+  /// printed with few digits) are projected onto SO(3) before averaging.
+  double orthonormality_tolerance = 1e-3;
 };
 
 struct RotationAverageResult {
