@@ -8,6 +8,8 @@
 
 #include <functional>
 #include <string>
+#include <utility>
+#include <vector>
 
 namespace mrsns::cli {
 
@@ -26,14 +28,16 @@ struct GlobalOptions {
   std::string log_level = "warn";
 };
 
-/// A verb adds its subcommand to `app` and returns the action run when that
-/// subcommand was chosen.
+/// The action run when a verb's subcommand was chosen.
 using VerbAction = std::function<Report()>;
-using VerbRegistration = std::function<VerbAction(CLI::App& app, GlobalOptions& options)>;
+/// Every registered verb: its subcommand and its action.
+using VerbList = std::vector<std::pair<CLI::App*, VerbAction>>;
 
-/// Verbs register themselves here (one call per verb file, from main).
-void registerInfoVerb(CLI::App& app, GlobalOptions& options, std::vector<std::pair<CLI::App*, VerbAction>>& verbs);
-void registerConvertVerb(CLI::App& app, GlobalOptions& options, std::vector<std::pair<CLI::App*, VerbAction>>& verbs);
+// Each verb file adds its subcommand(s) to `app` and its action to `verbs`.
+void registerInfoVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs);
+void registerConvertVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs);
+void registerCalibrateToolVerbs(CLI::App& app, GlobalOptions& options, VerbList& verbs);
+void registerRegisterPointsVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs);
 
 /// Adds the --json flag to a subcommand (every verb has it).
 void addJsonFlag(CLI::App& sub, GlobalOptions& options);

@@ -33,9 +33,11 @@ int main(int argc, char** argv) {
   app.add_option("--log-level", options.log_level, "trace, debug, info, warn, error, critical or off")
       ->capture_default_str();
 
-  std::vector<std::pair<CLI::App*, VerbAction>> verbs;
+  VerbList verbs;
   registerInfoVerb(app, options, verbs);
   registerConvertVerb(app, options, verbs);
+  registerCalibrateToolVerbs(app, options, verbs);
+  registerRegisterPointsVerb(app, options, verbs);
 
   try {
     app.parse(argc, argv);

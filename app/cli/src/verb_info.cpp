@@ -11,7 +11,7 @@ void addJsonFlag(CLI::App& sub, GlobalOptions& options) {
   sub.add_flag("--json", options.json, "print one JSON object with the results instead of text");
 }
 
-void registerInfoVerb(CLI::App& app, GlobalOptions& options, std::vector<std::pair<CLI::App*, VerbAction>>& verbs) {
+void registerInfoVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs) {
   auto* sub = app.add_subcommand(
       "info",
       "Summarise a file: sequences (frames, image size, transforms and how many frames have each valid, time "
@@ -42,7 +42,7 @@ void registerInfoVerb(CLI::App& app, GlobalOptions& options, std::vector<std::pa
 }
 
 void registerConvertVerb(CLI::App& app, GlobalOptions& options,
-                         std::vector<std::pair<CLI::App*, VerbAction>>& verbs) {
+                         VerbList& verbs) {
   auto* sub = app.add_subcommand("convert",
                                  "Convert a file to another format of the same kind; the output format follows from "
                                  "OUT's extension (e.g. .igs.mha -> .seq.nrrd, .stl -> .vtp, DICOM -> .nrrd, .fcsv -> "
