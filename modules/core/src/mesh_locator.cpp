@@ -209,6 +209,14 @@ void MeshLocator::build(const MeshLocatorOptions& options) {
     tasks.push_back({left, task.begin, mid});
     tasks.push_back({left + 1, mid, task.end});
   }
+  // Corners copied in leaf order: a leaf's triangles then sit in one or two
+  // cache lines instead of behind two indirections.
+  triangles_.resize(order_.size());
+  for (std::size_t i = 0; i < order_.size(); ++i) {
+    for (int k = 0; k < 3; ++k) {
+      triangles_[i][static_cast<std::size_t>(k)] = vertices_.row(faces_(order_[i], k)).transpose();
+    }
+  }
 }
 
 void MeshLocator::computePseudoNormals() {
@@ -248,17 +256,16 @@ void MeshLocator::computePseudoNormals() {
   }
 }
 
-void MeshLocator::testFace(const Eigen::Vector3d& query, Eigen::Index f, SurfacePoint& best) const {
+void MeshLocator::testFace(const Eigen::Vector3d& query, Eigen::Index slot, SurfacePoint& best) const {
+  const auto& tri = triangles_[static_cast<std::size_t>(slot)];
   Eigen::Vector3d bary;
-  const Eigen::Vector3d p =
-      closestPointOnTriangle(query, vertices_.row(faces_(f, 0)).transpose(), vertices_.row(faces_(f, 1)).transpose(),
-                             vertices_.row(faces_(f, 2)).transpose(), &bary);
+  const Eigen::Vector3d p = closestPointOnTriangle(query, tri[0], tri[1], tri[2], &bary);
   const double d2 = (p - query).squaredNorm();
   // best.distance holds the squared distance during the search.
   if (d2 < best.distance) {
     best.distance = d2;
     best.point = p;
-    best.face = f;
+    best.face = order_[static_cast<std::size_t>(slot)];
     best.barycentric = bary;
   }
 }
@@ -279,7 +286,7 @@ SurfacePoint MeshLocator::closestPoint(const Eigen::Vector3d& query) const {
     const Node& node = nodes_[static_cast<std::size_t>(index)];
     if (node.count > 0) {
       for (std::int32_t i = node.first; i < node.first + node.count; ++i) {
-        testFace(query, order_[static_cast<std::size_t>(i)], best);
+        testFace(query, i, best);
       }
       continue;
     }
@@ -301,7 +308,7 @@ SurfacePoint MeshLocator::closestPoint(const Eigen::Vector3d& query) const {
 
 SurfacePoint MeshLocator::closestPointBruteForce(const Eigen::Vector3d& query) const {
   SurfacePoint best;
-  for (Eigen::Index f = 0; f < faces_.rows(); ++f) testFace(query, f, best);
+  for (Eigen::Index slot = 0; slot < faces_.rows(); ++slot) testFace(query, slot, best);
   best.distance = std::sqrt(best.distance);
   return best;
 }
@@ -371,9 +378,10 @@ std::vector<RayHit> MeshLocator::intersectLine(const Eigen::Vector3d& origin, co
     for (std::int32_t i = node.first; i < node.first + node.count; ++i) {
       const std::int32_t f = order_[static_cast<std::size_t>(i)];
       // Moller-Trumbore.
-      const Eigen::Vector3d a = vertices_.row(faces_(f, 0)).transpose();
-      const Eigen::Vector3d e1 = vertices_.row(faces_(f, 1)).transpose() - a;
-      const Eigen::Vector3d e2 = vertices_.row(faces_(f, 2)).transpose() - a;
+      const auto& tri = triangles_[static_cast<std::size_t>(i)];
+      const Eigen::Vector3d& a = tri[0];
+      const Eigen::Vector3d e1 = tri[1] - a;
+      const Eigen::Vector3d e2 = tri[2] - a;
       const Eigen::Vector3d pvec = direction.cross(e2);
       const double det = e1.dot(pvec);
       // Parallel (or degenerate) faces: a line in the face's plane has no single crossing.

@@ -2,6 +2,7 @@
 // Closest point on a triangle surface, signed distance and line/ray-mesh
 // intersection, accelerated by a bounding-volume hierarchy over the faces.
 #include <Eigen/Core>
+#include <array>
 #include <cstdint>
 #include <limits>
 #include <vector>
@@ -99,12 +100,13 @@ class MeshLocator {
 
   void build(const MeshLocatorOptions& options);
   void computePseudoNormals();
-  void testFace(const Eigen::Vector3d& query, Eigen::Index f, SurfacePoint& best) const;
+  void testFace(const Eigen::Vector3d& query, Eigen::Index slot, SurfacePoint& best) const;
 
   PointsN3 vertices_;
   Eigen::Matrix<std::int32_t, Eigen::Dynamic, 3, Eigen::RowMajor> faces_;
   std::vector<Node> nodes_;
-  std::vector<std::int32_t> order_;  // face indices, grouped by leaf
+  std::vector<std::int32_t> order_;                        // face indices, grouped by leaf
+  std::vector<std::array<Eigen::Vector3d, 3>> triangles_;  // corners of face order_[i]
   bool closed_ = false;
   PointsN3 face_normals_;
   PointsN3 vertex_pseudo_normals_;
