@@ -14,6 +14,7 @@
 #include "itk_bridge.h"
 #include "mrsns/core/error.h"
 #include "mrsns/core/log.h"
+#include "nifti_header.h"
 
 namespace mrsns::io {
 namespace {
@@ -243,7 +244,24 @@ ImageReadResult readImageFile(const std::filesystem::path& path) {
   }
   ImageReadResult result;
   result.format = format;
-  result.image = fromRaw(detail::readRawImage(rawFormat(format), path), path);
+  if (format == ImageFormat::Nifti) detail::checkNiftiLength(path);
+  try {
+    result.image = fromRaw(detail::readRawImage(rawFormat(format), path), path);
+  } catch (const FormatError& e) {
+    if (format != ImageFormat::Nifti || std::string(e.what()).find("orthonormal") == std::string::npos) throw;
+    const auto repaired = detail::niftiWithQformFromSform(path);
+    if (!repaired) throw;
+    logger()->info("NIfTI '{}': sform direction is orthonormal only within {:.2g}; reading its nearest rotation",
+                   path.string(), repaired->deviation);
+    struct Remove {
+      std::filesystem::path p;
+      ~Remove() {
+        std::error_code ignored;
+        std::filesystem::remove(p, ignored);
+      }
+    } cleanup{repaired->path};
+    result.image = fromRaw(detail::readRawImage(rawFormat(format), repaired->path), path);
+  }
   return result;
 }
 

@@ -6,6 +6,7 @@
 #include <vtkDataArray.h>
 #include <vtkDoubleArray.h>
 #include <vtkIdList.h>
+#include <vtkLogger.h>
 #include <vtkNew.h>
 #include <vtkOBJReader.h>
 #include <vtkOBJWriter.h>
@@ -71,6 +72,9 @@ void installVtkOutputWindow() {
   std::call_once(once, [] {
     vtkNew<MrsnsVtkOutputWindow> window;
     vtkOutputWindow::SetInstance(window);
+    // VTK also logs errors through vtkLogger straight to stderr; they reach
+    // our logger through the output window above.
+    vtkLogger::SetStderrVerbosity(vtkLogger::VERBOSITY_OFF);
   });
 }
 

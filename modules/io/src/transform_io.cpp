@@ -42,8 +42,9 @@ std::string slurp(const std::filesystem::path& path) {
 }
 
 bool isItkText(const std::string& text) {
+  static const std::string kMagic = "#Insight Transform File";
   const auto start = text.find_first_not_of(" \t\r\n");
-  return start != std::string::npos && text.compare(start, 22, "#Insight Transform File") == 0;
+  return start != std::string::npos && text.compare(start, kMagic.size(), kMagic) == 0;
 }
 
 /// Plain "4 lines of 4 numbers" (commas or whitespace; '#' comments).

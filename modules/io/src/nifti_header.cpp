@@ -1,0 +1,141 @@
+#include "nifti_header.h"
+
+#include <unistd.h>
+#include <zlib.h>
+
+#include <Eigen/Geometry>
+#include <Eigen/SVD>
+#include <array>
+#include <atomic>
+#include <cstdint>
+#include <cstring>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include "mrsns/core/error.h"
+
+namespace mrsns::io::detail {
+namespace {
+
+constexpr int kHeaderSize = 348;
+
+std::string quoted(const std::filesystem::path& path) {
+  std::string s(1, '\'');
+  s += path.string();
+  s += '\'';
+  return s;
+}
+
+/// The decompressed bytes of a (possibly gzipped) file; `complete` is false
+/// when the compressed stream ends early or is corrupt.
+std::vector<unsigned char> readAll(const std::filesystem::path& path, bool& complete) {
+  std::vector<unsigned char> bytes;
+  complete = false;
+  gzFile gz = gzopen(path.string().c_str(), "rb");
+  if (gz == nullptr) return bytes;
+  std::vector<unsigned char> chunk(1 << 20);
+  for (;;) {
+    const int n = gzread(gz, chunk.data(), static_cast<unsigned>(chunk.size()));
+    if (n < 0) break;
+    if (n == 0) {
+      int err = Z_OK;
+      gzerror(gz, &err);
+      complete = (err == Z_OK || err == Z_STREAM_END);
+      break;
+    }
+    bytes.insert(bytes.end(), chunk.begin(), chunk.begin() + n);
+  }
+  gzclose(gz);
+  return bytes;
+}
+
+template <typename T>
+T field(const std::vector<unsigned char>& h, std::size_t at) {
+  T v;
+  std::memcpy(&v, h.data() + at, sizeof v);
+  return v;
+}
+
+template <typename T>
+void setField(std::vector<unsigned char>& h, std::size_t at, T v) {
+  std::memcpy(h.data() + at, &v, sizeof v);
+}
+
+bool isLittleEndianNifti1(const std::vector<unsigned char>& h) {
+  return h.size() >= static_cast<std::size_t>(kHeaderSize) && field<std::int32_t>(h, 0) == kHeaderSize &&
+         (std::memcmp(h.data() + 344, "n+1", 4) == 0 || std::memcmp(h.data() + 344, "ni1", 4) == 0);
+}
+
+}  // namespace
+
+void checkNiftiLength(const std::filesystem::path& path) {
+  bool complete = false;
+  const std::vector<unsigned char> bytes = readAll(path, complete);
+  if (!isLittleEndianNifti1(bytes) || std::memcmp(bytes.data() + 344, "n+1", 4) != 0) return;
+  const int dims = field<std::int16_t>(bytes, 40);
+  if (dims < 1 || dims > 7)
+    throw FormatError("NIfTI file " + quoted(path) + " declares " + std::to_string(dims) + " dimensions");
+  std::uint64_t voxels = 1;
+  for (int i = 1; i <= dims; ++i) {
+    const auto extent = field<std::int16_t>(bytes, static_cast<std::size_t>(40 + 2 * i));
+    if (extent < 1)
+      throw FormatError("NIfTI file " + quoted(path) + " declares a size below 1 along axis " + std::to_string(i));
+    voxels *= static_cast<std::uint64_t>(extent);
+  }
+  const auto bitpix = static_cast<std::uint64_t>(std::max<std::int16_t>(field<std::int16_t>(bytes, 72), 0));
+  const auto offset = static_cast<std::uint64_t>(std::max(field<float>(bytes, 108), 0.0F));
+  const std::uint64_t expected = offset + voxels * bitpix / 8;
+  if (!complete || bytes.size() < expected) {
+    throw FormatError("NIfTI file " + quoted(path) + " is truncated: its header declares " + std::to_string(expected) +
+                      " bytes but " + (complete ? "" : "the compressed stream breaks off after ") +
+                      std::to_string(bytes.size()) + (complete ? " are present" : " bytes") +
+                      "; copy or export it again");
+  }
+}
+
+std::optional<RepairedNifti> niftiWithQformFromSform(const std::filesystem::path& path, double tolerance) {
+  bool complete = false;
+  std::vector<unsigned char> bytes = readAll(path, complete);
+  if (!complete || !isLittleEndianNifti1(bytes) || std::memcmp(bytes.data() + 344, "n+1", 4) != 0) return std::nullopt;
+  if (field<std::int16_t>(bytes, 254) <= 0) return std::nullopt;  // no sform to take the geometry from
+  Eigen::Matrix3d a;
+  Eigen::Vector3d offset;
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) a(r, c) = field<float>(bytes, static_cast<std::size_t>(280 + 16 * r + 4 * c));
+    offset[r] = field<float>(bytes, static_cast<std::size_t>(280 + 16 * r + 12));
+  }
+  const Eigen::Vector3d spacing = a.colwise().norm();
+  if (!a.allFinite() || (spacing.array() <= 0.0).any()) return std::nullopt;
+  Eigen::Matrix3d r = a * spacing.cwiseInverse().asDiagonal();
+  RepairedNifti result;
+  result.deviation = (r.transpose() * r - Eigen::Matrix3d::Identity()).norm();
+  if (result.deviation > tolerance) return std::nullopt;
+  float qfac = 1.0F;
+  if (r.determinant() < 0.0) {
+    r.col(2) *= -1.0;  // NIfTI's qfac carries the reflection
+    qfac = -1.0F;
+  }
+  Eigen::JacobiSVD<Eigen::Matrix3d> svd(r, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Quaterniond q(Eigen::Matrix3d(svd.matrixU() * svd.matrixV().transpose()));
+  if (q.w() < 0.0) q.coeffs() *= -1.0;  // NIfTI derives a = +sqrt(1 - b^2 - c^2 - d^2)
+  setField<std::int16_t>(bytes, 252, field<std::int16_t>(bytes, 254));
+  setField<std::int16_t>(bytes, 254, 0);
+  setField<float>(bytes, 256, static_cast<float>(q.x()));
+  setField<float>(bytes, 260, static_cast<float>(q.y()));
+  setField<float>(bytes, 264, static_cast<float>(q.z()));
+  for (int i = 0; i < 3; ++i) {
+    setField<float>(bytes, static_cast<std::size_t>(268 + 4 * i), static_cast<float>(offset[i]));
+    setField<float>(bytes, static_cast<std::size_t>(80 + 4 * i), static_cast<float>(spacing[i]));
+  }
+  setField<float>(bytes, 76, qfac);
+  static std::atomic<int> counter{0};
+  result.path = std::filesystem::temp_directory_path() /
+                ("mrsns-nifti-" + std::to_string(::getpid()) + "-" + std::to_string(counter++) + ".nii");
+  std::ofstream out(result.path, std::ios::binary | std::ios::trunc);
+  out.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+  if (!out) return std::nullopt;
+  return result;
+}
+
+}  // namespace mrsns::io::detail

@@ -1,0 +1,338 @@
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <zlib.h>
+
+#include <cstring>
+#include <fstream>
+#include <random>
+
+#include "mrsns/core/error.h"
+#include "mrsns/io/image_io.h"
+#include "test_data.h"
+
+namespace mrsns::io {
+namespace {
+
+using ::testing::HasSubstr;
+
+template <typename T>
+ImageVolume syntheticVolume(PixelType type) {
+  ImageVolume v;
+  v.size = {7, 5, 4};
+  v.spacing = Eigen::Vector3d(0.7, 1.3, 2.5);
+  v.origin = Eigen::Vector3d(-120.25, 33.5, 871.0);
+  // An oblique, right-handed direction (rotation about an arbitrary axis).
+  v.direction = Eigen::AngleAxisd(0.4, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+  v.pixel_type = type;
+  v.data.resize(v.byteCount());
+  std::mt19937 rng(42);
+  for (std::size_t i = 0; i < v.voxelCount(); ++i) {
+    const T value = static_cast<T>(static_cast<int>(rng() % 200) - (std::is_signed_v<T> ? 100 : 0)) / T(1);
+    std::memcpy(v.data.data() + i * sizeof(T), &value, sizeof(T));
+  }
+  return v;
+}
+
+std::vector<ImageVolume> allPixelTypes() {
+  return {syntheticVolume<std::uint8_t>(PixelType::UInt8),   syntheticVolume<std::int8_t>(PixelType::Int8),
+          syntheticVolume<std::uint16_t>(PixelType::UInt16), syntheticVolume<std::int16_t>(PixelType::Int16),
+          syntheticVolume<std::uint32_t>(PixelType::UInt32), syntheticVolume<std::int32_t>(PixelType::Int32),
+          syntheticVolume<float>(PixelType::Float32),        syntheticVolume<double>(PixelType::Float64)};
+}
+
+void expectSameGeometry(const ImageVolume& a, const ImageVolume& b, double tolerance) {
+  EXPECT_EQ(a.size, b.size);
+  EXPECT_LT((a.spacing - b.spacing).cwiseAbs().maxCoeff(), tolerance);
+  EXPECT_LT((a.origin - b.origin).cwiseAbs().maxCoeff(), tolerance);
+  EXPECT_LT((a.direction - b.direction).cwiseAbs().maxCoeff(), tolerance);
+}
+
+TEST(ImageIo, RoundTripEveryFormatAndPixelType) {
+  const auto dir = test::scratchDirectory("img");
+  for (const std::string ext : {".nrrd", ".nhdr", ".nii", ".nii.gz", ".mha", ".mhd"}) {
+    for (const ImageVolume& volume : allPixelTypes()) {
+      SCOPED_TRACE(ext + " " + pixelTypeName(volume.pixel_type));
+      const auto file = dir / (pixelTypeName(volume.pixel_type) + ext);
+      writeImage(volume, file);
+      const ImageVolume back = readImage(file);
+      EXPECT_EQ(back.pixel_type, volume.pixel_type);
+      // NIfTI stores geometry as float32 (relative precision 6e-8, values up to ~900 mm).
+      expectSameGeometry(volume, back, ext.find(".nii") != std::string::npos ? 1e-4 : 1e-9);
+      EXPECT_TRUE(back.data == volume.data);
+    }
+  }
+}
+
+TEST(ImageIo, VoxelIndexAndPhysicalPointsAreInverse) {
+  const ImageVolume v = syntheticVolume<std::int16_t>(PixelType::Int16);
+  const Eigen::Vector3d ijk(2.5, -1.0, 3.25);
+  const Eigen::Vector3d p = v.indexToPhysical(ijk);
+  EXPECT_LT((v.physicalToIndex(p) - ijk).norm(), 1e-12);
+  EXPECT_LT((v.ijkToLps() * ijk.homogeneous() - p.homogeneous()).norm(), 1e-12);
+  // One step along i moves spacing[0] mm along direction column 0.
+  EXPECT_LT((v.indexToPhysical(Eigen::Vector3d(1, 0, 0)) - v.origin - 0.7 * v.direction.col(0)).norm(), 1e-12);
+  std::int16_t raw;
+  std::memcpy(&raw, v.data.data() + v.linearIndex(3, 2, 1) * 2, 2);
+  EXPECT_EQ(v.value(3, 2, 1), raw);
+}
+
+TEST(ImageIo, DicomSeriesJpeg2000GeometryAndNrrdRoundTrip) {
+  MRSNS_REQUIRE_DATA(folder, "ct/totalsegmentator/example_ct_dicom");
+  const ImageReadResult read = readImageFile(folder);
+  const ImageVolume& ct = read.image;
+  EXPECT_EQ(read.format, ImageFormat::Dicom);
+  EXPECT_EQ(read.file_count, 20U);
+  // From the headers (gdcmdump): 512x512 slices, PixelSpacing 0.9765625, axial
+  // orientation 1\0\0\0\1\0, ImagePositionPatient z from -804.5 to -766.5 (20 slices: 2 mm).
+  EXPECT_EQ(ct.size, (std::array<int, 3>{512, 512, 20}));
+  EXPECT_DOUBLE_EQ(ct.spacing.x(), 0.9765625);
+  EXPECT_DOUBLE_EQ(ct.spacing.y(), 0.9765625);
+  EXPECT_NEAR(ct.spacing.z(), 2.0, 1e-9);
+  EXPECT_LT((ct.origin - Eigen::Vector3d(-249.51171875, -437.51171875, -804.5)).norm(), 1e-6);
+  EXPECT_LT((ct.direction - Eigen::Matrix3d::Identity()).norm(), 1e-9);
+  EXPECT_LT(read.slice_gap_deviation_mm, 1e-6);
+  // Rescale intercept -1024 applied: air near -1000 HU, nothing below -1024 + tolerance for padding.
+  double lo = 1e9, hi = -1e9;
+  for (std::size_t i = 0; i < ct.voxelCount(); i += 97) {
+    lo = std::min(lo, ct.valueAtIndex(i));
+    hi = std::max(hi, ct.valueAtIndex(i));
+  }
+  EXPECT_GE(lo, -3024.0);
+  EXPECT_LE(lo, -900.0);
+  EXPECT_GT(hi, 200.0);  // bone is present
+  EXPECT_FALSE(labelStatistics(ct).has_value());
+
+  const auto dir = test::scratchDirectory("img");
+  writeImage(ct, dir / "ct.nrrd");
+  const ImageVolume back = readImage(dir / "ct.nrrd");
+  expectSameGeometry(ct, back, 1e-9);
+  EXPECT_EQ(back.pixel_type, ct.pixel_type);
+  EXPECT_TRUE(back.data == ct.data);
+}
+
+TEST(ImageIo, SingleDicomFile) {
+  MRSNS_REQUIRE_DATA(file, "ct/nema/CT_small.dcm");
+  const ImageReadResult read = readImageFile(file);
+  EXPECT_EQ(read.format, ImageFormat::Dicom);
+  EXPECT_EQ(read.image.size[2], 1);
+  EXPECT_EQ(read.image.size[0], 128);
+  EXPECT_EQ(read.image.size[1], 128);
+  EXPECT_GT(read.image.spacing.x(), 0.0);
+  EXPECT_NEAR(std::abs(read.image.direction.determinant()), 1.0, 1e-6);
+}
+
+/// The geometry a NIfTI-1 header declares, converted RAS -> LPS by hand
+/// (what nibabel's affine gives, with x and y negated), read from the raw bytes.
+struct NiftiHeaderGeometry {
+  std::array<int, 3> size{};
+  Eigen::Vector3d spacing;
+  Eigen::Vector3d origin_lps;
+  Eigen::Matrix3d direction_lps;
+  short qform_code = 0, sform_code = 0;
+};
+
+NiftiHeaderGeometry niftiHeaderGeometry(const std::filesystem::path& path) {
+  gzFile gz = gzopen(path.string().c_str(), "rb");
+  EXPECT_NE(gz, nullptr);
+  unsigned char h[348] = {};
+  EXPECT_EQ(gzread(gz, h, sizeof h), 348);
+  gzclose(gz);
+  auto i32 = [&](int at) {
+    std::int32_t v;
+    std::memcpy(&v, h + at, 4);
+    return v;
+  };
+  auto i16 = [&](int at) {
+    std::int16_t v;
+    std::memcpy(&v, h + at, 2);
+    return v;
+  };
+  auto f32 = [&](int at) {
+    float v;
+    std::memcpy(&v, h + at, 4);
+    return static_cast<double>(v);
+  };
+  EXPECT_EQ(i32(0), 348) << "not a little-endian NIfTI-1 header";
+  NiftiHeaderGeometry g;
+  for (int a = 0; a < 3; ++a) g.size[static_cast<std::size_t>(a)] = i16(42 + 2 * a);
+  g.spacing = Eigen::Vector3d(f32(80), f32(84), f32(88));
+  g.qform_code = i16(252);
+  g.sform_code = i16(254);
+  const Eigen::Matrix3d flip = Eigen::Vector3d(-1, -1, 1).asDiagonal();
+  Eigen::Matrix3d dir_ras;
+  Eigen::Vector3d origin_ras;
+  if (g.sform_code > 0) {
+    Eigen::Matrix3d a;
+    for (int r = 0; r < 3; ++r) {
+      for (int c = 0; c < 3; ++c) a(r, c) = f32(280 + 16 * r + 4 * c);
+      origin_ras[r] = f32(280 + 16 * r + 12);
+    }
+    dir_ras = a * g.spacing.cwiseInverse().asDiagonal();
+  } else {
+    const double b = f32(256), c = f32(260), d = f32(264);
+    const double a = std::sqrt(std::max(0.0, 1.0 - (b * b + c * c + d * d)));
+    dir_ras << a * a + b * b - c * c - d * d, 2 * (b * c - a * d), 2 * (b * d + a * c),  //
+        2 * (b * c + a * d), a * a + c * c - b * b - d * d, 2 * (c * d - a * b),         //
+        2 * (b * d - a * c), 2 * (c * d + a * b), a * a + d * d - c * c - b * b;
+    const double qfac = f32(76) < 0 ? -1.0 : 1.0;
+    dir_ras.col(2) *= qfac;
+    origin_ras = Eigen::Vector3d(f32(268), f32(272), f32(276));
+  }
+  g.direction_lps = flip * dir_ras;
+  g.origin_lps = flip * origin_ras;
+  return g;
+}
+
+TEST(ImageIo, NiftiLabelMapsMatchTheirHeaderGeometryInLps) {
+  const std::vector<std::string> maps = {"ct/totalsegmentator/example_seg.nii.gz",
+                                         "ct/totalsegmentator/spine_report/example_ct_report/totalseg.nii.gz",
+                                         "ct/verse/sub-verse004_seg-vert_msk.nii.gz",
+                                         "ct/totalsegmentator/aorta_report/test_result/models/vertebrae_T12.nii.gz"};
+  int checked = 0;
+  for (const auto& relative : maps) {
+    const auto path = findDataFile(relative);
+    if (!path) continue;
+    SCOPED_TRACE(relative);
+    const NiftiHeaderGeometry expected = niftiHeaderGeometry(*path);
+    ASSERT_TRUE(expected.sform_code > 0 || expected.qform_code > 0);
+    const ImageVolume image = readImage(*path);
+    EXPECT_EQ(image.size, expected.size);
+    EXPECT_LT((image.spacing - expected.spacing.cwiseAbs()).cwiseAbs().maxCoeff(), 1e-5);
+    // float32 header values: origins up to ~1000 mm carry ~1e-4 mm of rounding.
+    EXPECT_LT((image.origin - expected.origin_lps).cwiseAbs().maxCoeff(), 1e-3);
+    EXPECT_LT((image.direction - expected.direction_lps).cwiseAbs().maxCoeff(), 1e-4);
+    const auto labels = labelStatistics(image);
+    ASSERT_TRUE(labels.has_value());
+    std::size_t total = 0;
+    for (const auto& l : *labels) total += l.voxels;
+    EXPECT_EQ(total, image.voxelCount());
+    ++checked;
+  }
+  if (checked == 0) GTEST_SKIP() << "no NIfTI label maps in the data directory";
+}
+
+TEST(ImageIo, VerseLabelMapHoldsT9ToL5) {
+  MRSNS_REQUIRE_DATA(path, "ct/verse/sub-verse004_seg-vert_msk.nii.gz");
+  const ImageVolume image = readImage(path);
+  EXPECT_NEAR(image.spacing.minCoeff(), 1.0, 1e-3);
+  EXPECT_NEAR(image.spacing.maxCoeff(), 2.0, 1e-3);
+  const auto labels = labelStatistics(image);
+  ASSERT_TRUE(labels.has_value());
+  std::vector<std::int64_t> values;
+  for (const auto& l : *labels) values.push_back(l.value);
+  EXPECT_EQ(values, (std::vector<std::int64_t>{0, 16, 17, 18, 19, 20, 21, 22, 23, 24}));
+  for (const auto& l : *labels) {
+    if (l.value == 0) continue;
+    // A vertebra is some 20-120 ml.
+    const double ml = static_cast<double>(l.voxels) * image.voxelVolume() / 1000.0;
+    EXPECT_GT(ml, 10.0) << l.value;
+    EXPECT_LT(ml, 200.0) << l.value;
+  }
+}
+
+TEST(ImageIo, TotalSegmentatorSpineLabels) {
+  MRSNS_REQUIRE_DATA(path, "ct/totalsegmentator/spine_report/example_ct_report/totalseg.nii.gz");
+  const ImageVolume image = readImage(path);
+  EXPECT_EQ(image.pixel_type, PixelType::UInt8);
+  EXPECT_EQ(image.size, (std::array<int, 3>{122, 101, 112}));
+  const auto labels = labelStatistics(image);
+  ASSERT_TRUE(labels.has_value());
+  // Counted independently from the raw bytes (a Python script over the
+  // decompressed file): labels 26-33 (S1 ... T11 in TotalSegmentator v2);
+  // label 31 (L1) has 2143 voxels of 27 mm^3 = 57.86 ml.
+  std::vector<std::int64_t> values;
+  for (const auto& l : *labels) values.push_back(l.value);
+  EXPECT_EQ(values, (std::vector<std::int64_t>{0, 26, 27, 28, 29, 30, 31, 32, 33}));
+  for (const auto& l : *labels) {
+    if (l.value == 31) {
+      EXPECT_EQ(l.voxels, 2143U);
+      EXPECT_NEAR(static_cast<double>(l.voxels) * image.voxelVolume() / 1000.0, 57.86, 0.005);
+    }
+  }
+}
+
+TEST(ImageIo, LabelStatisticsCountsAndRefusesContinuousImages) {
+  ImageVolume v;
+  v.size = {4, 3, 2};
+  v.pixel_type = PixelType::Int32;
+  std::vector<std::int32_t> values = {0, 0, 0, 5, 5, -3, 1000000, 0, 0, 0, 0, 0, 5, 5, 5, 0, 0, 0, 0, 0, 0, 0, 0, -3};
+  v.data.resize(values.size() * 4);
+  std::memcpy(v.data.data(), values.data(), v.data.size());
+  const auto labels = labelStatistics(v);
+  ASSERT_TRUE(labels.has_value());
+  ASSERT_EQ(labels->size(), 4U);
+  EXPECT_EQ((*labels)[0].value, -3);
+  EXPECT_EQ((*labels)[0].voxels, 2U);
+  EXPECT_EQ((*labels)[1].voxels, 16U);
+  EXPECT_EQ((*labels)[2].voxels, 5U);
+  EXPECT_EQ((*labels)[3].value, 1000000);
+  EXPECT_FALSE(labelStatistics(v, 3).has_value());
+  ImageVolume f = syntheticVolume<float>(PixelType::Float32);
+  const float half = 0.5F;
+  std::memcpy(f.data.data(), &half, 4);
+  EXPECT_FALSE(labelStatistics(f).has_value());
+}
+
+void writeBytes(const std::filesystem::path& path, const std::string& bytes) {
+  std::ofstream out(path, std::ios::binary);
+  out << bytes;
+}
+
+std::string slurp(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+template <typename E>
+void expectErrorNaming(const std::filesystem::path& path) {
+  try {
+    (void)readImage(path);
+    ADD_FAILURE() << path << " was accepted";
+  } catch (const E& e) {
+    EXPECT_THAT(e.what(), HasSubstr(path.filename().string()));
+  } catch (const std::exception& e) {
+    ADD_FAILURE() << "wrong exception type for " << path << ": " << e.what();
+  }
+}
+
+TEST(ImageIo, NrrdShorterThanItsHeaderIsAFormatError) {
+  const auto dir = test::scratchDirectory("img");
+  writeBytes(dir / "short.nrrd",
+             "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 10 10 10\nencoding: raw\n\n" + std::string(500, '\x07'));
+  expectErrorNaming<FormatError>(dir / "short.nrrd");
+  writeBytes(dir / "garbage.nrrd", "definitely not an image");
+  expectErrorNaming<FormatError>(dir / "garbage.nrrd");
+}
+
+TEST(ImageIo, TruncatedNiftiIsAFormatError) {
+  const auto dir = test::scratchDirectory("img");
+  const ImageVolume v = syntheticVolume<std::int16_t>(PixelType::Int16);
+  writeImage(v, dir / "full.nii", {.compress = false});
+  const std::string bytes = slurp(dir / "full.nii");
+  writeBytes(dir / "cut.nii", bytes.substr(0, bytes.size() - 100));
+  expectErrorNaming<FormatError>(dir / "cut.nii");
+  writeBytes(dir / "header_only.nii", bytes.substr(0, 200));
+  expectErrorNaming<FormatError>(dir / "header_only.nii");
+  writeImage(v, dir / "full.nii.gz");
+  const std::string gz = slurp(dir / "full.nii.gz");
+  writeBytes(dir / "cut.nii.gz", gz.substr(0, gz.size() / 2));
+  expectErrorNaming<FormatError>(dir / "cut.nii.gz");
+}
+
+TEST(ImageIo, MissingUnsupportedAndInvalidVolumes) {
+  const auto dir = test::scratchDirectory("img");
+  expectErrorNaming<FileError>(dir / "missing.nrrd");
+  writeBytes(dir / "picture.png", "png?");
+  expectErrorNaming<UnsupportedError>(dir / "picture.png");
+  ImageVolume v = syntheticVolume<std::uint8_t>(PixelType::UInt8);
+  v.data.pop_back();
+  EXPECT_THROW(writeImage(v, dir / "bad.nrrd"), InvalidArgumentError);
+  v = syntheticVolume<std::uint8_t>(PixelType::UInt8);
+  v.spacing.x() = 0.0;
+  EXPECT_THROW(writeImage(v, dir / "bad.nrrd"), InvalidArgumentError);
+  EXPECT_THROW(writeImage(syntheticVolume<std::uint8_t>(PixelType::UInt8), dir / "x.png"), UnsupportedError);
+  EXPECT_THROW(writeImage(syntheticVolume<std::uint8_t>(PixelType::UInt8), dir / "nofolder" / "x.nrrd"), FileError);
+}
+
+}  // namespace
+}  // namespace mrsns::io
