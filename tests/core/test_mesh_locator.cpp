@@ -215,6 +215,41 @@ TEST(MeshLocator, RayThroughSharedEdgesAndVerticesOfBoxIsReportedOnce) {
   EXPECT_NEAR(diagonal[1].t, 11.0, 1e-12);
 }
 
+TEST(MeshLocator, LinesThroughVerticesAndEdgeMidpointsCrossTwice) {
+  // The subdivided icosahedron is centrally symmetric: a line through the
+  // centre and a vertex (or an edge midpoint) leaves through the antipodal
+  // vertex (edge), so every hit lands on a feature shared by several faces.
+  const Eigen::Vector3d c(-3, 7, 11);
+  const TriangleMesh mesh = test::icosphere(15.0, 3, c);
+  const MeshLocator locator(mesh);
+  std::mt19937 rng(23);
+  for (int i = 0; i < 200; ++i) {
+    const Eigen::Index f = std::uniform_int_distribution<Eigen::Index>(0, mesh.faceCount() - 1)(rng);
+    const int k = i % 3;
+    const Eigen::Vector3d a = mesh.vertices.row(mesh.faces(f, k)).transpose();
+    const Eigen::Vector3d b = mesh.vertices.row(mesh.faces(f, (k + 1) % 3)).transpose();
+    const Eigen::Vector3d target = (i % 2 == 0) ? a : Eigen::Vector3d(0.5 * (a + b));
+    const auto hits = locator.intersectLine(c, target - c);
+    ASSERT_EQ(hits.size(), 2U) << "i=" << i;
+    EXPECT_NEAR(hits[0].t, -1.0, 1e-9);
+    EXPECT_NEAR(hits[1].t, 1.0, 1e-9);
+    EXPECT_TRUE(hits[0].entering);
+    EXPECT_FALSE(hits[1].entering);
+  }
+}
+
+TEST(MeshLocator, ClosestPointWithinRespectsTheBound) {
+  const MeshLocator locator(test::box(Eigen::Vector3d(2, 2, 2), 2));
+  const Eigen::Vector3d q(1, 1, 5);  // 3 above the top face
+  EXPECT_EQ(locator.closestPointWithin(q, 2.9).face, -1);
+  EXPECT_TRUE(std::isinf(locator.closestPointWithin(q, 2.9).distance));
+  const SurfacePoint at_bound = locator.closestPointWithin(q, 3.0);
+  ASSERT_GE(at_bound.face, 0);
+  EXPECT_NEAR(at_bound.distance, 3.0, 1e-15);
+  EXPECT_EQ(locator.closestPointWithin(q, 10.0).distance, locator.closestPoint(q).distance);
+  EXPECT_THROW((void)locator.closestPointWithin(q, -1.0), InvalidArgumentError);
+}
+
 TEST(MeshLocator, RejectsInvalidMeshesAndQueries) {
   TriangleMesh bad = test::box(Eigen::Vector3d(1, 1, 1));
   bad.faces(0, 2) = 1000;

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <numbers>
+#include <random>
 #include <vector>
 
 #include "mesh_fixtures.h"
@@ -104,6 +105,46 @@ TEST(PlaneIntersection, PlaneThroughVerticesAndAlongFacesOfBox) {
   ASSERT_EQ(top.size(), 1U);
   EXPECT_TRUE(top[0].closed);
   EXPECT_NEAR(polylineLength(top[0]), 2 * (4 + 6), 1e-12);
+}
+
+TEST(PlaneIntersection, PlanesThroughSphereVerticesGiveOneClosedContour) {
+  const double r = 10.0;
+  const TriangleMesh mesh = test::icosphere(r, 3);
+  const double r_in = test::inradius(mesh);
+  // z = 0 contains a great circle of vertices and edges of the subdivided icosahedron.
+  {
+    const auto contours = intersectMeshWithPlane(mesh, Eigen::Vector3d::Zero(), Eigen::Vector3d(0, 0, 1));
+    ASSERT_EQ(contours.size(), 1U);
+    EXPECT_TRUE(contours[0].closed);
+    for (const auto& p : contours[0].points) {
+      EXPECT_EQ(p.z(), 0.0);
+      EXPECT_LE(p.norm(), r + 1e-12);
+      EXPECT_GE(p.norm(), r_in - 1e-12);
+    }
+  }
+  // Random planes through a vertex, tilted at least 30 degrees from the radial direction.
+  std::mt19937 rng(31);
+  std::normal_distribution<double> g;
+  for (int i = 0; i < 200; ++i) {
+    const Eigen::Index v = std::uniform_int_distribution<Eigen::Index>(0, mesh.vertexCount() - 1)(rng);
+    const Eigen::Vector3d point = mesh.vertices.row(v).transpose();
+    Eigen::Vector3d normal;
+    do {
+      normal = Eigen::Vector3d(g(rng), g(rng), g(rng)).normalized();
+    } while (std::abs(normal.dot(point.normalized())) > std::cos(std::numbers::pi / 6));
+    const auto contours = intersectMeshWithPlane(mesh, point, normal);
+    ASSERT_EQ(contours.size(), 1U) << "i=" << i;
+    const Polyline3d& c = contours[0];
+    EXPECT_TRUE(c.closed);
+    EXPECT_GT(signedArea(c, normal), 0.0);
+    bool passes_through_vertex = false;
+    for (std::size_t k = 0; k < c.points.size(); ++k) {
+      EXPECT_NEAR(normal.dot(c.points[k] - point), 0.0, 1e-9);
+      EXPECT_GT((c.points[k] - c.points[(k + 1) % c.points.size()]).norm(), 1e-12);
+      passes_through_vertex = passes_through_vertex || (c.points[k] - point).norm() < 1e-12;
+    }
+    EXPECT_TRUE(passes_through_vertex);
+  }
 }
 
 TEST(PlaneIntersection, OpenTubeCutAlongItsAxisGivesTwoOpenLines) {

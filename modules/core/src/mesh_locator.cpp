@@ -271,10 +271,20 @@ void MeshLocator::testFace(const Eigen::Vector3d& query, Eigen::Index slot, Surf
 }
 
 SurfacePoint MeshLocator::closestPoint(const Eigen::Vector3d& query) const {
+  return closestPointWithin(query, std::numeric_limits<double>::infinity());
+}
+
+SurfacePoint MeshLocator::closestPointWithin(const Eigen::Vector3d& query, double max_distance) const {
   if (!query.allFinite()) {
     throw InvalidArgumentError("MeshLocator::closestPoint: the query point is not finite; pass a point without NaN");
   }
+  if (std::isnan(max_distance) || max_distance < 0.0) {
+    throw InvalidArgumentError("MeshLocator::closestPointWithin: max_distance must be >= 0 (got " +
+                               std::to_string(max_distance) + ")");
+  }
   SurfacePoint best;
+  // Start from the bound, nudged up so a point exactly at max_distance is kept.
+  best.distance = std::nextafter(max_distance * max_distance, std::numeric_limits<double>::infinity());
   // Depth-first, nearer child first; the tree depth is at most ~log2(M) + 1,
   // and each level leaves at most one pending sibling on the stack.
   std::array<std::pair<std::int32_t, double>, 128> stack{};
@@ -302,6 +312,7 @@ SurfacePoint MeshLocator::closestPoint(const Eigen::Vector3d& query) const {
       if (dr < best.distance) stack[top++] = {node.right, dr};
     }
   }
+  if (best.face < 0) return SurfacePoint{};
   best.distance = std::sqrt(best.distance);
   return best;
 }

@@ -60,6 +60,11 @@ class MeshLocator {
   /// The closest point on the surface (not just the closest vertex).
   [[nodiscard]] SurfacePoint closestPoint(const Eigen::Vector3d& query) const;
 
+  /// The closest point if it lies within `max_distance` (mm), otherwise a
+  /// result with face -1 and infinite distance. Faster than closestPoint for
+  /// far queries (e.g. ICP with a rejection distance).
+  [[nodiscard]] SurfacePoint closestPointWithin(const Eigen::Vector3d& query, double max_distance) const;
+
   /// Like closestPoint, with the sign from angle-weighted pseudo-normals
   /// (Baerentzen & Aanaes 2005), exact for closed meshes. Throws
   /// ComputationError for an open mesh unless `allow_open` is set, in which
