@@ -145,20 +145,18 @@ MeshLocator::MeshLocator(const TriangleMesh& mesh, const MeshLocatorOptions& opt
 
 void MeshLocator::build(const MeshLocatorOptions& options) {
   const Eigen::Index m = faces_.rows();
-  std::vector<Eigen::Vector3d> centroid(static_cast<std::size_t>(m));
-  std::vector<Eigen::Vector3d> face_lo(static_cast<std::size_t>(m));
-  std::vector<Eigen::Vector3d> face_hi(static_cast<std::size_t>(m));
+  // The split permutes these small records in place, so each level of the
+  // build streams through contiguous memory.
+  struct Item {
+    Eigen::Vector3d centroid;
+    std::int32_t face;
+  };
+  std::vector<Item> items(static_cast<std::size_t>(m));
   for (Eigen::Index f = 0; f < m; ++f) {
-    const Eigen::Vector3d a = vertices_.row(faces_(f, 0)).transpose();
-    const Eigen::Vector3d b = vertices_.row(faces_(f, 1)).transpose();
-    const Eigen::Vector3d c = vertices_.row(faces_(f, 2)).transpose();
-    const auto i = static_cast<std::size_t>(f);
-    face_lo[i] = a.cwiseMin(b).cwiseMin(c);
-    face_hi[i] = a.cwiseMax(b).cwiseMax(c);
-    centroid[i] = (a + b + c) / 3.0;
+    items[static_cast<std::size_t>(f)] = {
+        (vertices_.row(faces_(f, 0)) + vertices_.row(faces_(f, 1)) + vertices_.row(faces_(f, 2))).transpose() / 3.0,
+        static_cast<std::int32_t>(f)};
   }
-  order_.resize(static_cast<std::size_t>(m));
-  std::iota(order_.begin(), order_.end(), 0);
   nodes_.clear();
   nodes_.reserve(static_cast<std::size_t>(2 * m / options.max_leaf_faces + 2));
 
@@ -173,48 +171,58 @@ void MeshLocator::build(const MeshLocatorOptions& options) {
   while (!tasks.empty()) {
     const Task task = tasks.back();
     tasks.pop_back();
-    Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
-    Eigen::Vector3d hi = -lo;
-    Eigen::Vector3d clo = lo;
-    Eigen::Vector3d chi = hi;
-    for (std::int32_t i = task.begin; i < task.end; ++i) {
-      const auto f = static_cast<std::size_t>(order_[static_cast<std::size_t>(i)]);
-      lo = lo.cwiseMin(face_lo[f]);
-      hi = hi.cwiseMax(face_hi[f]);
-      clo = clo.cwiseMin(centroid[f]);
-      chi = chi.cwiseMax(centroid[f]);
-    }
-    Node& node = nodes_[static_cast<std::size_t>(task.node)];
-    node.lo = lo;
-    node.hi = hi;
     const std::int32_t count = task.end - task.begin;
     if (count <= options.max_leaf_faces) {
-      node.first = task.begin;
-      node.count = count;
+      nodes_[static_cast<std::size_t>(task.node)].first = task.begin;
+      nodes_[static_cast<std::size_t>(task.node)].count = count;
       continue;
+    }
+    Eigen::Vector3d clo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
+    Eigen::Vector3d chi = -clo;
+    for (std::int32_t i = task.begin; i < task.end; ++i) {
+      const Eigen::Vector3d& c = items[static_cast<std::size_t>(i)].centroid;
+      clo = clo.cwiseMin(c);
+      chi = chi.cwiseMax(c);
     }
     int axis = 0;
     (chi - clo).maxCoeff(&axis);
     const std::int32_t mid = task.begin + count / 2;
-    std::nth_element(order_.begin() + task.begin, order_.begin() + mid, order_.begin() + task.end,
-                     [&](std::int32_t x, std::int32_t y) {
-                       return centroid[static_cast<std::size_t>(x)][axis] < centroid[static_cast<std::size_t>(y)][axis];
-                     });
+    std::nth_element(items.begin() + task.begin, items.begin() + mid, items.begin() + task.end,
+                     [axis](const Item& x, const Item& y) { return x.centroid[axis] < y.centroid[axis]; });
     const auto left = static_cast<std::int32_t>(nodes_.size());
-    node.left = left;
-    node.right = left + 1;
-    node.count = 0;
-    nodes_.push_back({});  // `node` may dangle from here on
+    nodes_[static_cast<std::size_t>(task.node)].left = left;
+    nodes_[static_cast<std::size_t>(task.node)].right = left + 1;
+    nodes_.push_back({});
     nodes_.push_back({});
     tasks.push_back({left, task.begin, mid});
     tasks.push_back({left + 1, mid, task.end});
   }
   // Corners copied in leaf order: a leaf's triangles then sit in one or two
   // cache lines instead of behind two indirections.
-  triangles_.resize(order_.size());
-  for (std::size_t i = 0; i < order_.size(); ++i) {
+  order_.resize(items.size());
+  triangles_.resize(items.size());
+  for (std::size_t i = 0; i < items.size(); ++i) {
+    order_[i] = items[i].face;
     for (int k = 0; k < 3; ++k) {
       triangles_[i][static_cast<std::size_t>(k)] = vertices_.row(faces_(order_[i], k)).transpose();
+    }
+  }
+  // Bounds bottom-up: children always come after their parent in nodes_.
+  for (auto n = nodes_.size(); n-- > 0;) {
+    Node& node = nodes_[n];
+    if (node.count > 0) {
+      node.lo = node.hi = triangles_[static_cast<std::size_t>(node.first)][0];
+      for (std::int32_t i = node.first; i < node.first + node.count; ++i) {
+        for (const Eigen::Vector3d& corner : triangles_[static_cast<std::size_t>(i)]) {
+          node.lo = node.lo.cwiseMin(corner);
+          node.hi = node.hi.cwiseMax(corner);
+        }
+      }
+    } else {
+      const Node& l = nodes_[static_cast<std::size_t>(node.left)];
+      const Node& r = nodes_[static_cast<std::size_t>(node.right)];
+      node.lo = l.lo.cwiseMin(r.lo);
+      node.hi = l.hi.cwiseMax(r.hi);
     }
   }
 }
@@ -231,28 +239,30 @@ void MeshLocator::computePseudoNormals() {
       vertex_pseudo_normals_.row(faces_(f, k)) += angleBetween(u, v) * n;
     }
   }
-  // Edge pseudo-normal: the sum of the normals of the faces sharing the edge.
-  // Grouping by sorting keeps the build fast for 100k+ faces.
-  const std::int64_t nv = vertices_.rows();
-  std::vector<std::pair<std::int64_t, std::int32_t>> slots;
-  slots.reserve(static_cast<std::size_t>(3 * m));
-  for (Eigen::Index f = 0; f < m; ++f) {
-    for (int k = 0; k < 3; ++k) {
-      const std::int64_t a = faces_(f, k);
-      const std::int64_t b = faces_(f, (k + 1) % 3);
-      slots.emplace_back(std::min(a, b) * nv + std::max(a, b), static_cast<std::int32_t>(3 * f + k));
-    }
-  }
-  std::sort(slots.begin(), slots.end());
-  edge_pseudo_normals_.assign(slots.size(), Eigen::Vector3d::Zero());
-  for (std::size_t i = 0; i < slots.size();) {
-    std::size_t j = i;
+  // Edge pseudo-normal: the sum of the normals of the faces sharing the edge,
+  // found through half-edges bucketed by start vertex (CSR; no sort or hash).
+  const auto nv = static_cast<std::size_t>(vertices_.rows());
+  const std::size_t slots = static_cast<std::size_t>(3 * m);
+  auto head = [&](std::size_t slot) { return static_cast<std::size_t>(faces_(slot / 3, slot % 3)); };
+  auto tail = [&](std::size_t slot) { return static_cast<std::size_t>(faces_(slot / 3, (slot % 3 + 1) % 3)); };
+  std::vector<std::size_t> start(nv + 1, 0);
+  for (std::size_t slot = 0; slot < slots; ++slot) ++start[head(slot) + 1];
+  for (std::size_t v = 0; v < nv; ++v) start[v + 1] += start[v];
+  std::vector<std::size_t> fill(start.begin(), start.end() - 1);
+  std::vector<std::size_t> by_head(slots);
+  for (std::size_t slot = 0; slot < slots; ++slot) by_head[fill[head(slot)]++] = slot;
+  edge_pseudo_normals_.assign(slots, Eigen::Vector3d::Zero());
+  for (std::size_t slot = 0; slot < slots; ++slot) {
+    const std::size_t a = head(slot);
+    const std::size_t b = tail(slot);
     Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-    for (; j < slots.size() && slots[j].first == slots[i].first; ++j) {
-      sum += face_normals_.row(slots[j].second / 3).transpose();
+    for (std::size_t i = start[a]; i < start[a + 1]; ++i) {
+      if (tail(by_head[i]) == b) sum += face_normals_.row(static_cast<Eigen::Index>(by_head[i] / 3)).transpose();
     }
-    for (std::size_t k = i; k < j; ++k) edge_pseudo_normals_[static_cast<std::size_t>(slots[k].second)] = sum;
-    i = j;
+    for (std::size_t i = start[b]; i < start[b + 1]; ++i) {
+      if (tail(by_head[i]) == a) sum += face_normals_.row(static_cast<Eigen::Index>(by_head[i] / 3)).transpose();
+    }
+    edge_pseudo_normals_[slot] = sum;
   }
 }
 

@@ -117,22 +117,27 @@ double signedVolume(const TriangleMesh& mesh) {
 
 bool isClosed(const TriangleMesh& mesh) {
   if (mesh.empty()) return false;
-  std::vector<std::int64_t> directed;
-  directed.reserve(static_cast<std::size_t>(mesh.faceCount()) * 3);
-  const std::int64_t n = mesh.vertexCount();
-  for (Eigen::Index f = 0; f < mesh.faceCount(); ++f) {
-    for (int k = 0; k < 3; ++k) {
-      const std::int64_t a = mesh.faces(f, k);
-      const std::int64_t b = mesh.faces(f, (k + 1) % 3);
-      if (a == b) return false;
-      directed.push_back(a * n + b);
-    }
-  }
-  std::sort(directed.begin(), directed.end());
-  if (std::adjacent_find(directed.begin(), directed.end()) != directed.end()) return false;
-  for (const std::int64_t key : directed) {
-    const std::int64_t reverse = (key % n) * n + key / n;
-    if (!std::binary_search(directed.begin(), directed.end(), reverse)) return false;
+  // Half-edges bucketed by start vertex (CSR): finding an edge's twin scans
+  // one vertex's few half-edges, O(faces) overall with no sort or hash.
+  const auto nv = static_cast<std::size_t>(mesh.vertexCount());
+  const auto m = static_cast<std::size_t>(mesh.faceCount());
+  auto head = [&](std::size_t slot) { return static_cast<std::size_t>(mesh.faces(slot / 3, slot % 3)); };
+  auto tail = [&](std::size_t slot) { return static_cast<std::size_t>(mesh.faces(slot / 3, (slot % 3 + 1) % 3)); };
+  std::vector<std::size_t> start(nv + 1, 0);
+  for (std::size_t slot = 0; slot < 3 * m; ++slot) ++start[head(slot) + 1];
+  for (std::size_t v = 0; v < nv; ++v) start[v + 1] += start[v];
+  std::vector<std::size_t> fill(start.begin(), start.end() - 1);
+  std::vector<std::size_t> slots(3 * m);
+  for (std::size_t slot = 0; slot < 3 * m; ++slot) slots[fill[head(slot)]++] = slot;
+  auto count = [&](std::size_t from, std::size_t to) {
+    int n = 0;
+    for (std::size_t i = start[from]; i < start[from + 1]; ++i) n += tail(slots[i]) == to ? 1 : 0;
+    return n;
+  };
+  for (std::size_t slot = 0; slot < 3 * m; ++slot) {
+    const std::size_t a = head(slot);
+    const std::size_t b = tail(slot);
+    if (a == b || count(a, b) != 1 || count(b, a) != 1) return false;
   }
   return true;
 }
