@@ -40,7 +40,11 @@ inline CliResult runCli(const std::vector<std::string>& args) {
   const auto out_file = dir / ("out" + std::to_string(counter) + ".txt");
   const auto err_file = dir / ("err" + std::to_string(counter++) + ".txt");
   std::string command = quoteArgument(cliBinary().string());
-  for (const auto& a : args) command += " " + quoteArgument(a);
+  for (const auto& a : args) {
+    // Appended in two steps: GCC 12 -O3 warns falsely (-Wrestrict) on `" " + std::string`.
+    command += ' ';
+    command += quoteArgument(a);
+  }
   command += " >" + quoteArgument(out_file.string()) + " 2>" + quoteArgument(err_file.string()) + " </dev/null";
   const int status = std::system(command.c_str());
   CliResult result;
