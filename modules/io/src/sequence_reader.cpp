@@ -45,8 +45,10 @@ OpenedHeader openHeader(const std::filesystem::path& path, const SequenceReadOpt
   std::optional<std::size_t> end;
   while (!end) {
     const std::size_t old = text.size();
-    text.resize(old + kChunk);
-    in.read(text.data() + old, static_cast<std::streamsize>(kChunk));
+    // Small files (and fuzz inputs) need not pay for a full chunk.
+    const std::size_t chunk = static_cast<std::size_t>(std::min<std::uint64_t>(kChunk, size > old ? size - old : 1));
+    text.resize(old + chunk);
+    in.read(text.data() + old, static_cast<std::streamsize>(chunk));
     text.resize(old + static_cast<std::size_t>(in.gcount()));
     const bool at_end = text.size() >= size || in.gcount() == 0;
     end = detail::isNrrdText(text) ? detail::findNrrdHeaderEnd(text, at_end)
@@ -150,7 +152,8 @@ struct SequenceReader::Impl {
       if (inflateInit2(&zs, 15 + 32) != Z_OK)
         throw ComputationError("zlib could not be initialised");  // auto-detect zlib/gzip
       z_ready = true;
-      in_buffer.resize(kChunk);
+      in_buffer.resize(
+          static_cast<std::size_t>(std::min<std::uint64_t>(kChunk, std::max<std::uint64_t>(*storage.stored_bytes, 1))));
     } else {
       inflateReset(&zs);
     }

@@ -33,7 +33,7 @@ SequenceFormat sequenceFormatFromPath(const std::filesystem::path& path);
 struct SequenceReadOptions {
   std::uint64_t max_frame_bytes = std::uint64_t{1} << 31;  ///< one frame's pixel data
   std::uint64_t max_total_bytes = std::uint64_t{1} << 36;  ///< all frames' pixel data (decompressed)
-  std::uint64_t max_frames = 10'000'000;
+  std::uint64_t max_frames = 1'000'000;  // each costs ~200 bytes of metadata before any data is checked
   std::uint64_t max_header_bytes = std::uint64_t{1} << 28;
 };
 
