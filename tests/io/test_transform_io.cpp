@@ -177,6 +177,8 @@ TEST(TransformIo, MalformedFilesGiveFormatErrorsNamingTheFile) {
       {"bad_params.tfm",
        "#Insight Transform File V1.0\n#Transform 0\nTransform: AffineTransform_double_3_3\nParameters: 1 2 3\n"
        "FixedParameters: 0 0 0\n"},
+      {"short_params_no_fixed.tfm",
+       "#Insight Transform File V1.0\n#Transform 0\nTransform: AffineTransform_double_3_3\nParameters: 1\n"},
       {"unknown_class.tfm",
        "#Insight Transform File V1.0\n#Transform 0\nTransform: NoSuchTransform_double_3_3\nParameters: 1\n"},
       {"fifteen.txt", "1 0 0 0\n0 1 0 0\n0 0 1 0\n0 0 0\n"},

@@ -10,6 +10,7 @@
 #include <cmath>
 #include <fstream>
 #include <iomanip>
+#include <optional>
 #include <sstream>
 
 #include "itk_bridge.h"
@@ -96,6 +97,62 @@ std::string formatFromExtension(const std::string& ext) {
   return "itk-text";
 }
 
+/// ITK's text reader silently leaves a transform at identity when its
+/// "Parameters:" line is short and "FixedParameters:" is missing: check the
+/// counts ourselves against what ITK built.
+void checkItkTextCounts(const std::string& text, const std::vector<detail::RawTransform>& raws,
+                        const std::filesystem::path& path) {
+  struct Block {
+    std::string name;
+    std::optional<std::size_t> parameters, fixed;
+  };
+  std::vector<Block> blocks;
+  std::istringstream in(text);
+  std::string line;
+  auto count = [](const std::string& rest) {
+    std::istringstream values(rest);
+    std::size_t n = 0;
+    std::string token;
+    while (values >> token) ++n;
+    return n;
+  };
+  while (std::getline(in, line)) {
+    const auto colon = line.find(':');
+    if (colon == std::string::npos) continue;
+    const std::string key = line.substr(0, colon);
+    const std::string rest = line.substr(colon + 1);
+    if (key == "Transform") {
+      std::istringstream name(rest);
+      blocks.push_back({});
+      name >> blocks.back().name;
+    } else if (key == "Parameters" && !blocks.empty()) {
+      blocks.back().parameters = count(rest);
+    } else if (key == "FixedParameters" && !blocks.empty()) {
+      blocks.back().fixed = count(rest);
+    }
+  }
+  const bool composite = !blocks.empty() && blocks.front().name.rfind("CompositeTransform", 0) == 0;
+  if (composite) blocks.erase(blocks.begin());
+  std::vector<const detail::RawTransform*> ordered;
+  for (const auto& r : raws) ordered.push_back(&r);
+  if (composite) std::reverse(ordered.begin(), ordered.end());  // raws come first-applied first
+  if (blocks.size() != ordered.size()) {
+    throw FormatError("transform file " + quoted(path) + " lists " + std::to_string(blocks.size()) +
+                      " transforms but " + std::to_string(ordered.size()) + " could be read");
+  }
+  for (std::size_t i = 0; i < blocks.size(); ++i) {
+    const Block& b = blocks[i];
+    const detail::RawTransform& r = *ordered[i];
+    if (!b.parameters || *b.parameters != r.parameters.size() || !b.fixed || *b.fixed != r.fixed_parameters.size()) {
+      throw FormatError("transform file " + quoted(path) + ": " + b.name + " needs " +
+                        std::to_string(r.parameters.size()) + " Parameters and " +
+                        std::to_string(r.fixed_parameters.size()) + " FixedParameters, the file gives " +
+                        (b.parameters ? std::to_string(*b.parameters) : std::string("no")) + " and " +
+                        (b.fixed ? std::to_string(*b.fixed) : std::string("no")));
+    }
+  }
+}
+
 }  // namespace
 
 TransformFile readTransformFile(const std::filesystem::path& path) {
@@ -105,6 +162,7 @@ TransformFile readTransformFile(const std::filesystem::path& path) {
                            "': use .tfm, .h5, .mat or .txt");
   }
   TransformFile file;
+  std::string itk_text;
   if (ext == ".tfm" || ext == ".txt") {
     const std::string text = slurp(path);
     if (!isItkText(text)) {
@@ -118,6 +176,7 @@ TransformFile readTransformFile(const std::filesystem::path& path) {
       classify(file);
       return file;
     }
+    itk_text = text;
   } else {
     std::ifstream probe(path, std::ios::binary);
     if (!probe)
@@ -125,6 +184,7 @@ TransformFile readTransformFile(const std::filesystem::path& path) {
   }
   file.format = formatFromExtension(ext);
   const std::vector<detail::RawTransform> raws = detail::readRawTransforms(path);
+  if (!itk_text.empty()) checkItkTextCounts(itk_text, raws, path);
   file.linear = true;
   Eigen::Matrix4d total = Eigen::Matrix4d::Identity();
   for (const auto& raw : raws) {

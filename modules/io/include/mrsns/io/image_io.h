@@ -26,7 +26,7 @@ struct ImageReadResult {
   ImageVolume image;
   ImageFormat format = ImageFormat::Nrrd;
   std::size_t file_count = 1;        ///< DICOM series: slices read
-  std::string series_uid;            ///< DICOM: SeriesInstanceUID read
+  std::string series_uid;            ///< DICOM: ITK's series id (SeriesInstanceUID + series details)
   std::size_t series_in_folder = 0;  ///< DICOM folder: how many series it holds (the largest is read)
   /// DICOM series: largest deviation of a slice gap from the mean gap (mm);
   /// a few percent of the spacing means missing or irregular slices.

@@ -1,0 +1,102 @@
+// `info` and `convert` for volumes (NRRD, NIfTI, MetaImage, DICOM).
+#include <algorithm>
+#include <limits>
+#include <sstream>
+
+#include "file_kinds.h"
+#include "mrsns/io/image_io.h"
+
+namespace mrsns::cli {
+namespace {
+
+Json vec(const Eigen::Vector3d& v) {
+  return Json::array({v.x(), v.y(), v.z()});
+}
+
+}  // namespace
+
+Report summarizeImage(const std::filesystem::path& path) {
+  const io::ImageReadResult read = io::readImageFile(path);
+  const ImageVolume& image = read.image;
+  Report report;
+  auto& j = report.json;
+  j["file"] = path.string();
+  j["kind"] = "image";
+  j["format"] = io::imageFormatName(read.format);
+  j["size"] = {image.size[0], image.size[1], image.size[2]};
+  j["spacing"] = vec(image.spacing);
+  j["origin"] = vec(image.origin);
+  j["coordinate_system"] = "LPS";
+  // Rows of the direction matrix; its columns are the i, j, k axes in LPS.
+  j["direction"] = Json::array();
+  for (int r = 0; r < 3; ++r)
+    j["direction"].push_back(Json::array({image.direction(r, 0), image.direction(r, 1), image.direction(r, 2)}));
+  j["pixel_type"] = pixelTypeName(image.pixel_type);
+  j["physical_extent_mm"] = vec(image.physicalExtent());
+  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+  for (std::size_t i = 0; i < image.voxelCount(); ++i) {
+    const double v = image.valueAtIndex(i);
+    lo = std::min(lo, v);
+    hi = std::max(hi, v);
+  }
+  j["value_range"] = {lo, hi};
+  if (read.format == io::ImageFormat::Dicom) {
+    j["dicom_files"] = read.file_count;
+    j["series_id"] = read.series_uid;
+    if (read.series_in_folder > 0) j["series_in_folder"] = read.series_in_folder;
+    j["slice_gap_deviation_mm"] = read.slice_gap_deviation_mm;
+  }
+  std::optional<std::vector<io::LabelCount>> labels;
+  if (isIntegerPixelType(image.pixel_type) || image.pixel_type == PixelType::Float64 ||
+      image.pixel_type == PixelType::Float32) {
+    labels = io::labelStatistics(image, 256);
+  }
+  if (labels) {
+    j["labels"] = Json::array();
+    for (const auto& l : *labels) {
+      j["labels"].push_back({{"value", l.value},
+                             {"voxels", l.voxels},
+                             {"volume_ml", static_cast<double>(l.voxels) * image.voxelVolume() / 1000.0}});
+    }
+  }
+
+  std::ostringstream t;
+  t << path.string() << ": image (" << j["format"].get<std::string>() << ", " << pixelTypeName(image.pixel_type)
+    << ")\n"
+    << "  size: " << image.size[0] << " x " << image.size[1] << " x " << image.size[2] << "\n"
+    << "  spacing (mm): " << image.spacing.x() << ", " << image.spacing.y() << ", " << image.spacing.z() << "\n"
+    << "  origin (LPS mm): " << image.origin.x() << ", " << image.origin.y() << ", " << image.origin.z() << "\n"
+    << "  direction (columns = i, j, k in LPS):\n";
+  for (int r = 0; r < 3; ++r) {
+    t << "    " << image.direction(r, 0) << " " << image.direction(r, 1) << " " << image.direction(r, 2) << "\n";
+  }
+  t << "  values: " << lo << " .. " << hi << "\n";
+  if (read.format == io::ImageFormat::Dicom) t << "  DICOM files: " << read.file_count << "\n";
+  if (labels) {
+    t << "  labels (" << labels->size() << "):";
+    for (const auto& l : *labels) {
+      t << " " << l.value << " (" << static_cast<double>(l.voxels) * image.voxelVolume() / 1000.0 << " ml)";
+    }
+    t << "\n";
+  }
+  report.text = t.str();
+  return report;
+}
+
+Report convertImage(const std::filesystem::path& in, const std::filesystem::path& out, const ConvertOptions& options) {
+  const ImageVolume image = io::readImage(in);
+  io::ImageWriteOptions write;
+  write.compress = options.compress;
+  io::writeImage(image, out, write);
+  Report report;
+  report.json["file"] = in.string();
+  report.json["kind"] = "image";
+  report.json["written"] = out.string();
+  report.json["size"] = {image.size[0], image.size[1], image.size[2]};
+  report.json["pixel_type"] = pixelTypeName(image.pixel_type);
+  report.text = "wrote " + out.string() + " (" + std::to_string(image.size[0]) + " x " + std::to_string(image.size[1]) +
+                " x " + std::to_string(image.size[2]) + ", " + pixelTypeName(image.pixel_type) + ")\n";
+  return report;
+}
+
+}  // namespace mrsns::cli
