@@ -6,6 +6,8 @@ if [ -z "${MRSNS_DATA_DIR:-}" ]; then
 fi
 export MRSNS_DATA_DIR
 export CCACHE_DIR="${CCACHE_DIR:-$HOME/.cache/ccache}"
+# Paths relative to the checkout, so a fresh clone elsewhere (CI) hits the cache.
+export CCACHE_BASEDIR="${CCACHE_BASEDIR:-$MRSNS_ROOT}"
 
 phase_start() { PHASE_NAME="$1"; PHASE_T0=$(date +%s); echo "== $1"; }
 phase_end() { echo "== $PHASE_NAME: $(( $(date +%s) - PHASE_T0 )) s"; }
