@@ -319,6 +319,24 @@ TEST(ImageIo, TruncatedNiftiIsAFormatError) {
   expectErrorNaming<FormatError>(dir / "cut.nii.gz");
 }
 
+TEST(ImageIo, TruncatedMetaImageIsAFormatError) {
+  const auto dir = test::scratchDirectory("img");
+  const ImageVolume v = syntheticVolume<std::int16_t>(PixelType::Int16);
+  for (bool compress : {false, true}) {
+    const std::string stem = compress ? "z" : "raw";
+    writeImage(v, dir / (stem + ".mha"), {.compress = compress});
+    const std::string bytes = slurp(dir / (stem + ".mha"));
+    writeBytes(dir / (stem + "_cut.mha"), bytes.substr(0, bytes.size() - 40));
+    expectErrorNaming<FormatError>(dir / (stem + "_cut.mha"));
+  }
+  // A detached header whose data file lost its tail.
+  writeImage(v, dir / "split.mhd", {.compress = false});
+  const std::string raw = slurp(dir / "split.raw");
+  ASSERT_EQ(raw.size(), v.byteCount());
+  writeBytes(dir / "split.raw", raw.substr(0, raw.size() / 2));
+  expectErrorNaming<FormatError>(dir / "split.mhd");
+}
+
 TEST(ImageIo, MissingUnsupportedAndInvalidVolumes) {
   const auto dir = test::scratchDirectory("img");
   expectErrorNaming<FileError>(dir / "missing.nrrd");

@@ -68,7 +68,8 @@ Report summarizeImage(const std::filesystem::path& path) {
     << "  origin (LPS mm): " << image.origin.x() << ", " << image.origin.y() << ", " << image.origin.z() << "\n"
     << "  direction (columns = i, j, k in LPS):\n";
   for (int r = 0; r < 3; ++r) {
-    t << "    " << image.direction(r, 0) << " " << image.direction(r, 1) << " " << image.direction(r, 2) << "\n";
+    t << "    " << clean(image.direction(r, 0)) << " " << clean(image.direction(r, 1)) << " "
+      << clean(image.direction(r, 2)) << "\n";
   }
   t << "  values: " << lo << " .. " << hi << "\n";
   if (read.format == io::ImageFormat::Dicom) t << "  DICOM files: " << read.file_count << "\n";

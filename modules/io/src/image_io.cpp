@@ -11,10 +11,10 @@
 #include <limits>
 #include <map>
 
+#include "header_checks.h"
 #include "itk_bridge.h"
 #include "mrsns/core/error.h"
 #include "mrsns/core/log.h"
-#include "nifti_header.h"
 
 namespace mrsns::io {
 namespace {
@@ -245,6 +245,7 @@ ImageReadResult readImageFile(const std::filesystem::path& path) {
   ImageReadResult result;
   result.format = format;
   if (format == ImageFormat::Nifti) detail::checkNiftiLength(path);
+  if (format == ImageFormat::MetaImage) detail::checkMetaImageLength(path);
   try {
     result.image = fromRaw(detail::readRawImage(rawFormat(format), path), path);
   } catch (const FormatError& e) {

@@ -1,6 +1,6 @@
 #pragma once
-// NIfTI-1 header checks ITK 5.2 does not make (or makes too strictly), done
-// on the raw header bytes. Internal to the io module.
+// Header checks ITK 5.2 does not make (or makes too strictly), done on the
+// raw NIfTI-1 and MetaImage headers. Internal to the io module.
 #include <filesystem>
 #include <optional>
 
@@ -10,6 +10,11 @@ namespace mrsns::io::detail {
 /// holds fewer voxel bytes than its header declares. ITK reads a truncated
 /// uncompressed .nii without complaint. Non-NIfTI-1 files are left alone.
 void checkNiftiLength(const std::filesystem::path& path);
+
+/// Throws FormatError naming the file when a MetaImage (.mha with LOCAL
+/// data, or .mhd with one data file) holds fewer bytes than its header
+/// declares: ITK's MetaIO only prints a warning and returns partial data.
+void checkMetaImageLength(const std::filesystem::path& path);
 
 /// ITK 5.2 refuses a NIfTI file without a qform whose sform is a rotation
 /// only up to float rounding ("No orthonormal definition found"), as written

@@ -1,15 +1,19 @@
-#include "nifti_header.h"
+#include "header_checks.h"
 
 #include <unistd.h>
 #include <zlib.h>
 
 #include <Eigen/Geometry>
 #include <Eigen/SVD>
+#include <algorithm>
 #include <array>
 #include <atomic>
 #include <cstdint>
+#include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <map>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -91,6 +95,73 @@ void checkNiftiLength(const std::filesystem::path& path) {
                       " bytes but " + (complete ? "" : "the compressed stream breaks off after ") +
                       std::to_string(bytes.size()) + (complete ? " are present" : " bytes") +
                       "; copy or export it again");
+  }
+}
+
+void checkMetaImageLength(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return;
+  std::map<std::string, std::string> fields;
+  std::string line;
+  std::uint64_t header_end = 0;
+  while (std::getline(in, line)) {
+    header_end = static_cast<std::uint64_t>(in.tellg());
+    const auto eq = line.find('=');
+    if (eq == std::string::npos) return;  // not a MetaImage header: let ITK judge
+    auto trim = [](std::string s) {
+      const auto b = s.find_first_not_of(" \t\r");
+      const auto e = s.find_last_not_of(" \t\r");
+      return b == std::string::npos ? std::string() : s.substr(b, e - b + 1);
+    };
+    const std::string key = trim(line.substr(0, eq));
+    fields[key] = trim(line.substr(eq + 1));
+    if (key == "ElementDataFile") break;
+    if (fields.size() > 200) return;
+  }
+  if (!fields.count("ElementDataFile") || !fields.count("DimSize") || !fields.count("ElementType")) return;
+  static const std::map<std::string, std::uint64_t> kSizes = {
+      {"MET_UCHAR", 1},      {"MET_CHAR", 1},      {"MET_USHORT", 2}, {"MET_SHORT", 2},
+      {"MET_UINT", 4},       {"MET_INT", 4},       {"MET_ULONG", 8},  {"MET_LONG", 8},
+      {"MET_ULONG_LONG", 8}, {"MET_LONG_LONG", 8}, {"MET_FLOAT", 4},  {"MET_DOUBLE", 8}};
+  const auto element = kSizes.find(fields["ElementType"]);
+  if (element == kSizes.end()) return;
+  std::uint64_t expected = element->second;
+  std::istringstream dims(fields["DimSize"]);
+  std::int64_t extent = 0;
+  while (dims >> extent) {
+    if (extent < 1) throw FormatError("MetaImage " + quoted(path) + " declares a size below 1 (DimSize)");
+    expected *= static_cast<std::uint64_t>(extent);
+  }
+  if (fields.count("ElementNumberOfChannels")) {
+    expected *= static_cast<std::uint64_t>(std::max(1L, std::atol(fields["ElementNumberOfChannels"].c_str())));
+  }
+  const std::string data_file = fields["ElementDataFile"];
+  std::error_code ec;
+  std::uint64_t available = 0;
+  if (data_file == "LOCAL") {
+    available = std::filesystem::file_size(path, ec) - header_end;
+  } else if (data_file.find('%') == std::string::npos && data_file.rfind("LIST", 0) != 0) {
+    const auto external = path.parent_path() / data_file;
+    available = std::filesystem::file_size(external, ec);
+    if (ec) throw FormatError("MetaImage " + quoted(path) + ": its data file " + quoted(external) + " is missing");
+    const long header_size = fields.count("HeaderSize") ? std::atol(fields["HeaderSize"].c_str()) : 0;
+    if (header_size < 0) return;  // data at the end of the file: nothing to check
+    available =
+        available > static_cast<std::uint64_t>(header_size) ? available - static_cast<std::uint64_t>(header_size) : 0;
+  } else {
+    return;
+  }
+  if (ec) return;
+  const bool compressed =
+      fields.count("CompressedData") && (fields["CompressedData"] == "True" || fields["CompressedData"] == "true");
+  if (compressed) {
+    if (!fields.count("CompressedDataSize")) return;
+    expected = static_cast<std::uint64_t>(std::max(0LL, std::atoll(fields["CompressedDataSize"].c_str())));
+  }
+  if (available < expected) {
+    throw FormatError("MetaImage " + quoted(path) + " is truncated: its header declares " + std::to_string(expected) +
+                      (compressed ? " compressed" : "") + " bytes of voxels but only " + std::to_string(available) +
+                      " are present; copy or export it again");
   }
 }
 
