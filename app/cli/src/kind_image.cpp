@@ -9,8 +9,13 @@
 namespace mrsns::cli {
 namespace {
 
+/// Adding +0.0 turns -0.0 (from RAS->LPS flips of zero entries) into 0.0 for display.
+double clean(double v) {
+  return v + 0.0;
+}
+
 Json vec(const Eigen::Vector3d& v) {
-  return Json::array({v.x(), v.y(), v.z()});
+  return Json::array({clean(v.x()), clean(v.y()), clean(v.z())});
 }
 
 }  // namespace
@@ -26,7 +31,8 @@ Report summarizeImage(const std::filesystem::path& path) {
   j["size"] = {image.size[0], image.size[1], image.size[2]};
   j["spacing"] = vec(image.spacing);
   j["origin"] = vec(image.origin);
-  j["coordinate_system"] = "LPS";
+  j["direction"].push_back(
+      Json::array({clean(image.direction(r, 0)), clean(image.direction(r, 1)), clean(image.direction(r, 2))}));
   // Rows of the direction matrix; its columns are the i, j, k axes in LPS.
   j["direction"] = Json::array();
   for (int r = 0; r < 3; ++r)
