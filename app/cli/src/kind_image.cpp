@@ -31,12 +31,13 @@ Report summarizeImage(const std::filesystem::path& path) {
   j["size"] = {image.size[0], image.size[1], image.size[2]};
   j["spacing"] = vec(image.spacing);
   j["origin"] = vec(image.origin);
-  j["direction"].push_back(
-      Json::array({clean(image.direction(r, 0)), clean(image.direction(r, 1)), clean(image.direction(r, 2))}));
+  j["coordinate_system"] = "LPS";
   // Rows of the direction matrix; its columns are the i, j, k axes in LPS.
   j["direction"] = Json::array();
-  for (int r = 0; r < 3; ++r)
-    j["direction"].push_back(Json::array({image.direction(r, 0), image.direction(r, 1), image.direction(r, 2)}));
+  for (int r = 0; r < 3; ++r) {
+    j["direction"].push_back(
+        Json::array({clean(image.direction(r, 0)), clean(image.direction(r, 1)), clean(image.direction(r, 2))}));
+  }
   j["pixel_type"] = pixelTypeName(image.pixel_type);
   j["physical_extent_mm"] = vec(image.physicalExtent());
   double lo = std::numeric_limits<double>::infinity(), hi = -lo;
