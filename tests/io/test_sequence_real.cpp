@@ -87,6 +87,15 @@ TEST(SequenceReal, StreamingReaderMatchesFullRead) {
     const TrackedFrame frame = reader.readFrame(i);
     ASSERT_TRUE(frame == full.frames[i]) << "frame " << i;
   }
+  // Iteration continues after the last frame read.
+  EXPECT_FALSE(reader.readNextFrame().has_value());
+  io::SequenceReader iterating(path);
+  std::size_t count = 0;
+  while (auto frame = iterating.readNextFrame()) {
+    ASSERT_TRUE(*frame == full.frames[count]) << "frame " << count;
+    ++count;
+  }
+  EXPECT_EQ(count, 188u);
   // Going back restarts the inflate; jumping ahead skips frames.
   EXPECT_TRUE(reader.readFrame(5) == full.frames[5]);
   EXPECT_TRUE(reader.readFrame(150) == full.frames[150]);
@@ -97,6 +106,9 @@ TEST(SequenceReal, StreamingReaderMatchesFullRead) {
 struct RoundTripCase {
   const char* file_name;
   bool compress;
+  friend void PrintTo(const RoundTripCase& c, std::ostream* os) {
+    *os << c.file_name << (c.compress ? " compressed" : " raw");
+  }
 };
 
 class SequenceRealRoundTrip : public ::testing::TestWithParam<RoundTripCase> {};

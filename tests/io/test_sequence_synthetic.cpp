@@ -16,6 +16,9 @@ namespace {
 struct FormatCase {
   const char* file_name;
   bool compress;
+  friend void PrintTo(const FormatCase& c, std::ostream* os) {
+    *os << c.file_name << (c.compress ? " compressed" : " raw");
+  }
 };
 
 class SequenceFormats : public ::testing::TestWithParam<FormatCase> {};
@@ -163,6 +166,17 @@ TEST(SequenceSynthetic, SlicerStyleNrrdWithIndexValuesAndItemAttributes) {
   EXPECT_EQ(seq.frames[0].transformStatus("ProbeToTracker"), TransformStatus::Missing);
   EXPECT_EQ(seq.custom_header_fields, (std::vector<std::pair<std::string, std::string>>{{"CustomThing", "abc"}}));
   EXPECT_EQ(seq.frames[2].pixels[5], static_cast<std::uint8_t>(17 * 7));
+}
+
+TEST(SequenceSynthetic, DetachedNrrdHeaderReadsItsDataFile) {
+  const auto dir = test::scratchDirectory("nhdr");
+  const TrackedSequence seq = test::makeSyntheticSequence(3, PixelType::Int16);
+  io::writeSequence(dir / "s.seq.nrrd", seq, test::writeOptions(true));
+  const std::string text = test::slurp(dir / "s.seq.nrrd");
+  const auto end = text.find("\n\n") + 2;
+  test::spit(dir / "s.seq.nhdr", text.substr(0, end - 1) + "data file: s.gz\n");
+  test::spit(dir / "s.gz", text.substr(end));
+  test::expectSameSequence(seq, io::readSequence(dir / "s.seq.nhdr"));
 }
 
 TEST(SequenceSynthetic, InterleavedSlicerLayoutIsRefusedClearly) {

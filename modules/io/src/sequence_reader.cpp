@@ -129,6 +129,7 @@ struct SequenceReader::Impl {
   TrackedSequence header;
   SequenceStorage storage;
   std::size_t frame_bytes = 0;
+  std::size_t cursor = 0;  // the frame readNextFrame() returns
   std::ifstream data;
   // Inflate state: the stream has produced every frame before `next_frame`.
   z_stream zs{};
@@ -291,11 +292,18 @@ TrackedFrame SequenceReader::readFrame(std::size_t index) {
   TrackedFrame frame = impl_->header.frames[index];
   frame.pixels.resize(impl_->frame_bytes);
   impl_->read(index, frame.pixels);
+  impl_->cursor = index + 1;
   return frame;
 }
 
 void SequenceReader::readFramePixels(std::size_t index, std::span<std::uint8_t> out) {
   impl_->read(index, out);
+  impl_->cursor = index + 1;
+}
+
+std::optional<TrackedFrame> SequenceReader::readNextFrame() {
+  if (impl_->cursor >= frameCount()) return std::nullopt;
+  return readFrame(impl_->cursor);
 }
 
 TrackedSequence readSequence(const std::filesystem::path& path, const SequenceReadOptions& options) {

@@ -79,6 +79,10 @@ class SequenceReader {
   /// The pixels of frame `index` into `out` (frameBytes() long).
   void readFramePixels(std::size_t index, std::span<std::uint8_t> out);
 
+  /// Iteration: the frame after the one last read (frame 0 first), or
+  /// nullopt after the last frame.
+  [[nodiscard]] std::optional<TrackedFrame> readNextFrame();
+
  private:
   struct Impl;
   std::unique_ptr<Impl> impl_;
