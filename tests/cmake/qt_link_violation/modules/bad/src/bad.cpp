@@ -1,0 +1,1 @@
+int badFunction() { return 1; }
