@@ -26,7 +26,10 @@ struct ReferenceMessage {
 
 /// The float32 nearest to `v` (what survives a trip through the wire).
 inline double f32(double v) {
-  return static_cast<double>(static_cast<float>(v));
+  // volatile: GCC 12's SLP vectoriser (-O2) drops a double->float->double round trip when two of
+  // them feed Eigen::Vector3d(x, y, z) (reproduced in 10 lines; clang and -fno-tree-slp-vectorize are fine).
+  volatile float narrowed = static_cast<float>(v);
+  return narrowed;
 }
 
 class RandomContents {
