@@ -28,7 +28,10 @@ struct QueuedMessage {
 struct Server::Impl : std::enable_shared_from_this<Server::Impl> {
   struct Session : std::enable_shared_from_this<Session> {
     Session(Impl& owner, asio::ip::tcp::socket s, ClientId client_id)
-        : server(owner), socket(std::move(s)), timer(socket.get_executor()), id(client_id),
+        : server(owner),
+          socket(std::move(s)),
+          timer(socket.get_executor()),
+          id(client_id),
           framer(owner.options.decode) {}
 
     Impl& server;
@@ -276,11 +279,19 @@ struct Server::Impl : std::enable_shared_from_this<Server::Impl> {
 
 Server::Server(ServerOptions options) : impl_(std::make_shared<Impl>(std::move(options))) {}
 
-Server::~Server() { stop(); }
+Server::~Server() {
+  stop();
+}
 
-void Server::onConnect(ConnectHandler handler) { impl_->on_connect = std::move(handler); }
-void Server::onDisconnect(ConnectHandler handler) { impl_->on_disconnect = std::move(handler); }
-void Server::onMessage(MessageHandler handler) { impl_->on_message = std::move(handler); }
+void Server::onConnect(ConnectHandler handler) {
+  impl_->on_connect = std::move(handler);
+}
+void Server::onDisconnect(ConnectHandler handler) {
+  impl_->on_disconnect = std::move(handler);
+}
+void Server::onMessage(MessageHandler handler) {
+  impl_->on_message = std::move(handler);
+}
 
 void Server::start() {
   if (impl_->is_running) return;
@@ -298,11 +309,12 @@ void Server::start() {
   if (ec) {
     asio::error_code ignored;
     impl_->acceptor.close(ignored);
-    throw NetworkError("cannot listen on " + impl_->options.bind_address + ":" +
-                       std::to_string(impl_->options.port) + ": " + ec.message() +
-                       (ec == asio::error::address_in_use ? " (another server, e.g. PlusServer or Slicer, uses this port: "
-                                                            "stop it or choose another port)"
-                                                          : ""));
+    throw NetworkError("cannot listen on " + impl_->options.bind_address + ":" + std::to_string(impl_->options.port) +
+                       ": " + ec.message() +
+                       (ec == asio::error::address_in_use
+                            ? " (another server, e.g. PlusServer or Slicer, uses this port: "
+                              "stop it or choose another port)"
+                            : ""));
   }
   impl_->bound_port = impl_->acceptor.local_endpoint().port();
   impl_->accept();
@@ -323,8 +335,12 @@ void Server::stop() {
   impl_->io.restart();
 }
 
-std::uint16_t Server::port() const { return impl_->bound_port; }
-bool Server::running() const { return impl_->is_running; }
+std::uint16_t Server::port() const {
+  return impl_->bound_port;
+}
+bool Server::running() const {
+  return impl_->is_running;
+}
 
 void Server::broadcast(const Message& message, HeaderVersion version, Channel channel) {
   broadcastEncoded(std::make_shared<const std::vector<std::uint8_t>>(encodeMessage(message, version)), channel);
@@ -335,6 +351,11 @@ void Server::broadcastEncoded(std::shared_ptr<const std::vector<std::uint8_t>> b
 }
 
 bool Server::send(ClientId client, const Message& message, HeaderVersion version, Channel channel) {
+  return sendEncoded(client, std::make_shared<const std::vector<std::uint8_t>>(encodeMessage(message, version)),
+                     channel);
+}
+
+bool Server::sendEncoded(ClientId client, std::shared_ptr<const std::vector<std::uint8_t>> bytes, Channel channel) {
   std::shared_ptr<Impl::Session> session;
   {
     std::lock_guard lock(impl_->sessions_mutex);
@@ -342,7 +363,7 @@ bool Server::send(ClientId client, const Message& message, HeaderVersion version
     if (it == impl_->sessions.end()) return false;
     session = it->second;
   }
-  session->enqueue(std::make_shared<const std::vector<std::uint8_t>>(encodeMessage(message, version)), channel);
+  session->enqueue(std::move(bytes), channel);
   return true;
 }
 

@@ -82,6 +82,9 @@ class Server {
   void broadcastEncoded(std::shared_ptr<const std::vector<std::uint8_t>> bytes, Channel channel);
   /// Queues for one client (e.g. the models sent on connect); false if gone.
   bool send(ClientId client, const Message& message, HeaderVersion version, Channel channel);
+  /// Queues already-encoded bytes for one client (a sender that must order
+  /// per-client messages, e.g. meshes before transforms); false if gone.
+  bool sendEncoded(ClientId client, std::shared_ptr<const std::vector<std::uint8_t>> bytes, Channel channel);
 
   [[nodiscard]] ServerStats stats() const;
 

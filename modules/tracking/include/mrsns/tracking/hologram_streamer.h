@@ -1,0 +1,111 @@
+#pragma once
+// The hologram stream to HMD clients (Eq. 1 of paper 001):
+//
+//   T_Vir^Hol = (T_Hol^Tra)^-1 * T_Pat^Tra * T_Pre^Pat * T_Vir^Pre
+//
+// i.e. hologram_T_model, which the transform repository answers by path
+// search (Model -> Preop -> Patient -> Tracker <- Hologram) once tracking,
+// registration and HMD calibration have set their edges.
+//
+// On every client connection the streamer queues each model as POLYDATA on
+// the Reliable channel, then the current STATUS of each model; only then does
+// that client get the TRANSFORM stream (Stream channel, one TRANSFORM per
+// model per update(), device name = model name). When a model's chain stops
+// being Ok (tool lost, stale) it sends STATUS (code NotReady, "TrackingLost")
+// and no TRANSFORM for that model; when the chain is Ok again, STATUS Ok.
+//
+// Send-only: whatever a client sends is counted, logged (rate-limited) and
+// ignored. Nothing a client sends reaches the repository or the models.
+#include <chrono>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "mrsns/core/mesh.h"
+#include "mrsns/core/transform_repository.h"
+#include "mrsns/igtlink/server.h"
+
+namespace mrsns::tracking {
+
+struct HologramModel {
+  /// Device name on the wire (at most 20 characters, unique).
+  std::string name;
+  /// Vertices in `frame`, mm.
+  TriangleMesh mesh;
+  /// The frame the mesh lives in (a repository frame, e.g. "Preop" or "C5").
+  std::string frame;
+};
+
+struct HologramStreamOptions {
+  /// The HMD's hologram (world) frame in the repository.
+  std::string hologram_frame = "Hologram";
+  /// Left-handed metres for Unity clients (see unity_convention.h); applied
+  /// to meshes and transforms alike.
+  bool unity = false;
+  igtlink::HeaderVersion version = igtlink::HeaderVersion::kV2;
+  /// Repository transforms also streamed under their own names (e.g.
+  /// "ProbeToTracker" for a Slicer client); sent when Ok, like the models.
+  std::vector<std::string> forward_transforms;
+  /// At most one log line per client per this many seconds about ignored messages.
+  double client_log_interval_s = 1.0;
+};
+
+struct HologramStreamStats {
+  std::uint64_t updates = 0;
+  std::uint64_t transforms_queued = 0;
+  std::uint64_t meshes_queued = 0;
+  std::uint64_t statuses_queued = 0;
+  std::uint64_t clients_served = 0;
+  std::uint64_t client_messages_ignored = 0;
+};
+
+class HologramStreamer {
+ public:
+  /// Installs the server's connect/disconnect/message handlers: construct it
+  /// before server.start(). Encodes every mesh once. Throws
+  /// InvalidArgumentError for an empty or too long or repeated device name, an
+  /// empty mesh or frame name, or a forward transform that is not "AToB".
+  HologramStreamer(igtlink::Server& server, std::shared_ptr<TransformRepository> repository,
+                   std::vector<HologramModel> models, HologramStreamOptions options = {});
+  ~HologramStreamer();
+  HologramStreamer(const HologramStreamer&) = delete;
+  HologramStreamer& operator=(const HologramStreamer&) = delete;
+
+  /// Evaluates every model's chain and queues its TRANSFORM (or STATUS on a
+  /// change) for every ready client. Call it from the tracking source's
+  /// update callback. `fallback_timestamp` (s since 1970) is used when the
+  /// chain has no timestamp (all persistent). Never throws.
+  void update(double fallback_timestamp) noexcept;
+
+  [[nodiscard]] HologramStreamStats stats() const;
+  [[nodiscard]] std::size_t readyClients() const;
+
+ private:
+  struct Stream {
+    std::string device;
+    TransformRepository::Query query;
+    bool ok = false;
+    bool announced = false;  // a status has been established (first update)
+  };
+  void onConnect(igtlink::ClientId client) noexcept;
+  void onDisconnect(igtlink::ClientId client) noexcept;
+  void onClientMessage(igtlink::ClientId client, const igtlink::Message& message) noexcept;
+  std::shared_ptr<const std::vector<std::uint8_t>> statusBytes(const Stream& stream, double timestamp) const;
+  void sendToReady(const std::shared_ptr<const std::vector<std::uint8_t>>& bytes, igtlink::Channel channel);
+
+  igtlink::Server& server_;
+  std::shared_ptr<TransformRepository> repository_;
+  HologramStreamOptions options_;
+  std::vector<std::shared_ptr<const std::vector<std::uint8_t>>> mesh_bytes_;
+
+  mutable std::mutex mutex_;  // guards everything below
+  std::vector<Stream> streams_;
+  std::set<igtlink::ClientId> ready_;
+  std::map<igtlink::ClientId, std::chrono::steady_clock::time_point> last_log_;
+  HologramStreamStats stats_;
+};
+
+}  // namespace mrsns::tracking

@@ -1,0 +1,181 @@
+#include "mrsns/tracking/hologram_streamer.h"
+
+#include <cmath>
+
+#include "mrsns/core/error.h"
+#include "mrsns/core/log.h"
+#include "mrsns/igtlink/codec.h"
+#include "mrsns/igtlink/polydata_mesh.h"
+#include "mrsns/tracking/unity_convention.h"
+
+namespace mrsns::tracking {
+namespace {
+
+using Bytes = std::shared_ptr<const std::vector<std::uint8_t>>;
+
+// The 32.32 header timestamp holds [0, 2^32) seconds.
+bool usableTimestamp(double t) {
+  return std::isfinite(t) && t >= 0.0 && t < 4294967295.0;
+}
+
+}  // namespace
+
+HologramStreamer::HologramStreamer(igtlink::Server& server, std::shared_ptr<TransformRepository> repository,
+                                   std::vector<HologramModel> models, HologramStreamOptions options)
+    : server_(server), repository_(std::move(repository)), options_(std::move(options)) {
+  if (!repository_) throw InvalidArgumentError("hologram stream: the transform repository is null");
+  if (options_.hologram_frame.empty()) throw InvalidArgumentError("hologram stream: the hologram frame name is empty");
+  std::set<std::string> names;
+  auto checkName = [&names](const std::string& name, const char* what) {
+    if (name.empty() || name.size() > igtlink::kDeviceNameSize) {
+      throw InvalidArgumentError(std::string("hologram stream: ") + what + " name '" + name +
+                                 "' must be 1 to 20 characters (an OpenIGTLink device name); rename it");
+    }
+    if (!names.insert(name).second) {
+      throw InvalidArgumentError(std::string("hologram stream: ") + what + " name '" + name +
+                                 "' is used twice; device names must be unique");
+    }
+  };
+  for (const auto& model : models) {
+    checkName(model.name, "model");
+    if (model.mesh.empty()) {
+      throw InvalidArgumentError("hologram stream: model '" + model.name + "' has no triangles; give a mesh");
+    }
+    if (model.frame.empty()) throw InvalidArgumentError("hologram stream: model '" + model.name + "' has no frame");
+    const TriangleMesh mesh = options_.unity ? meshToUnity(model.mesh) : model.mesh;
+    auto message = igtlink::makeMessage(model.name, igtlink::polyDataFromMesh(mesh));
+    if (options_.version == igtlink::HeaderVersion::kV2) {
+      message.header.version = 2;
+      message.metadata.push_back({"Frame", igtlink::kEncodingUsAscii, model.frame});
+      message.metadata.push_back({"Units", igtlink::kEncodingUsAscii, options_.unity ? "m" : "mm"});
+      message.metadata.push_back(
+          {"Convention", igtlink::kEncodingUsAscii, options_.unity ? "Unity left-handed" : "right-handed"});
+    }
+    mesh_bytes_.push_back(
+        std::make_shared<const std::vector<std::uint8_t>>(igtlink::encodeMessage(message, options_.version)));
+    Stream stream;
+    stream.device = model.name;
+    stream.query = repository_->prepare(model.frame, options_.hologram_frame);
+    streams_.push_back(std::move(stream));
+  }
+  for (const auto& name : options_.forward_transforms) {
+    checkName(name, "forwarded transform");
+    const auto frames = TransformName::parse(name);
+    Stream stream;
+    stream.device = name;
+    stream.query = repository_->prepare(frames.from, frames.to);
+    streams_.push_back(std::move(stream));
+  }
+  server_.onConnect([this](igtlink::ClientId c) { onConnect(c); });
+  server_.onDisconnect([this](igtlink::ClientId c) { onDisconnect(c); });
+  server_.onMessage([this](igtlink::ClientId c, const igtlink::Message& m) { onClientMessage(c, m); });
+}
+
+HologramStreamer::~HologramStreamer() = default;
+
+HologramStreamStats HologramStreamer::stats() const {
+  std::lock_guard lock(mutex_);
+  return stats_;
+}
+
+std::size_t HologramStreamer::readyClients() const {
+  std::lock_guard lock(mutex_);
+  return ready_.size();
+}
+
+Bytes HologramStreamer::statusBytes(const Stream& stream, double timestamp) const {
+  igtlink::StatusContent status;
+  if (stream.ok) {
+    status.code = static_cast<std::uint16_t>(igtlink::StatusCode::kOk);
+    status.error_name = "TrackingOk";
+    status.message = stream.device + ": tracking ok";
+  } else {
+    status.code = static_cast<std::uint16_t>(igtlink::StatusCode::kNotReady);
+    status.error_name = "TrackingLost";
+    status.message = stream.device + ": tracking lost (a tool of its chain is invalid or missing)";
+  }
+  const auto message = igtlink::makeMessage(stream.device, status, usableTimestamp(timestamp) ? timestamp : 0.0);
+  return std::make_shared<const std::vector<std::uint8_t>>(igtlink::encodeMessage(message, options_.version));
+}
+
+void HologramStreamer::sendToReady(const Bytes& bytes, igtlink::Channel channel) {
+  for (const auto client : ready_) server_.sendEncoded(client, bytes, channel);
+}
+
+void HologramStreamer::update(double fallback_timestamp) noexcept {
+  try {
+    std::lock_guard lock(mutex_);
+    ++stats_.updates;
+    for (auto& stream : streams_) {
+      const TransformResult result = repository_->evaluate(stream.query);
+      const bool ok = result.ok();
+      const double t = usableTimestamp(result.timestamp)
+                           ? result.timestamp
+                           : (usableTimestamp(fallback_timestamp) ? fallback_timestamp : 0.0);
+      if ((stream.announced && ok != stream.ok) || (!stream.announced && !ok)) {
+        stream.ok = ok;
+        sendToReady(statusBytes(stream, t), igtlink::Channel::Reliable);
+        stats_.statuses_queued += ready_.size();
+        if (!ok) logger()->warn("hologram stream: tracking of '{}' lost", stream.device);
+      }
+      stream.ok = ok;
+      stream.announced = true;
+      if (!ok) continue;
+      const Eigen::Matrix4d m =
+          options_.unity ? transformToUnity(result.to_T_from.matrix()) : Eigen::Matrix4d(result.to_T_from.matrix());
+      const auto message = igtlink::makeMessage(stream.device, igtlink::TransformContent{m}, t);
+      const auto bytes =
+          std::make_shared<const std::vector<std::uint8_t>>(igtlink::encodeMessage(message, options_.version));
+      sendToReady(bytes, igtlink::Channel::Stream);
+      stats_.transforms_queued += ready_.size();
+    }
+  } catch (const std::exception& e) {
+    logger()->error("hologram stream: update failed: {}", e.what());
+  }
+}
+
+void HologramStreamer::onConnect(igtlink::ClientId client) noexcept {
+  try {
+    std::lock_guard lock(mutex_);
+    for (const auto& bytes : mesh_bytes_) {
+      if (server_.sendEncoded(client, bytes, igtlink::Channel::Reliable)) ++stats_.meshes_queued;
+    }
+    for (const auto& stream : streams_) {
+      if (stream.announced && !stream.ok) {
+        server_.sendEncoded(client, statusBytes(stream, 0.0), igtlink::Channel::Reliable);
+        ++stats_.statuses_queued;
+      }
+    }
+    ready_.insert(client);
+    ++stats_.clients_served;
+    logger()->info("hologram stream: client {} connected, {} model(s) queued", client, mesh_bytes_.size());
+  } catch (const std::exception& e) {
+    logger()->error("hologram stream: cannot serve client {}: {}", client, e.what());
+  }
+}
+
+void HologramStreamer::onDisconnect(igtlink::ClientId client) noexcept {
+  try {
+    std::lock_guard lock(mutex_);
+    ready_.erase(client);
+    last_log_.erase(client);
+  } catch (...) {  // NOLINT: erase of a present key cannot fail in practice
+  }
+}
+
+void HologramStreamer::onClientMessage(igtlink::ClientId client, const igtlink::Message& message) noexcept {
+  try {
+    std::lock_guard lock(mutex_);
+    ++stats_.client_messages_ignored;
+    const auto now = std::chrono::steady_clock::now();
+    auto [it, first] = last_log_.try_emplace(client, now);
+    if (first || now - it->second > std::chrono::duration<double>(options_.client_log_interval_s)) {
+      it->second = now;
+      logger()->warn("hologram stream: ignoring {} '{}' from client {} (the stream is send-only)", message.header.type,
+                     message.header.device_name, client);
+    }
+  } catch (...) {  // NOLINT: logging must not take the I/O thread down
+  }
+}
+
+}  // namespace mrsns::tracking
