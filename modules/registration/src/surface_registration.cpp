@@ -1,0 +1,387 @@
+#include "mrsns/registration/surface_registration.h"
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/SVD>
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <string>
+
+#include "mrsns/core/error.h"
+#include "mrsns/core/log.h"
+#include "mrsns/core/rigid.h"
+#include "mrsns/registration/paired_point.h"
+
+namespace mrsns::registration {
+namespace {
+
+struct Correspondence {
+  int index = 0;          // moving point
+  Eigen::Vector3d p;      // moving point in the fixed frame (current estimate)
+  Eigen::Vector3d q;      // closest surface point
+  Eigen::Vector3d n;      // unit normal of the face holding q
+  double distance = 0.0;  // |p - q|
+  double weight = 1.0;
+};
+
+void checkOptions(const IcpOptions& o) {
+  if (o.max_iterations < 0) throw InvalidArgumentError("ICP: max_iterations must be >= 0");
+  if (!(o.max_correspondence_distance_mm > 0.0)) {
+    throw InvalidArgumentError("ICP: max_correspondence_distance_mm must be > 0 (use infinity to keep all)");
+  }
+  if (!(o.trim_fraction > 0.0 && o.trim_fraction <= 1.0)) {
+    throw InvalidArgumentError("ICP: trim_fraction must be in (0, 1], got " + std::to_string(o.trim_fraction));
+  }
+  if (!(o.min_robust_scale_mm > 0.0)) throw InvalidArgumentError("ICP: min_robust_scale_mm must be > 0");
+}
+
+void checkPoints(std::span<const Eigen::Vector3d> moving) {
+  if (moving.size() < 3) {
+    throw InvalidArgumentError("ICP needs at least 3 moving points, got " + std::to_string(moving.size()) +
+                               ": give more surface points");
+  }
+  for (std::size_t i = 0; i < moving.size(); ++i) {
+    if (!moving[i].allFinite()) {
+      throw InvalidArgumentError("ICP: moving point " + std::to_string(i) +
+                                 " is NaN or infinite: remove invalid points before registering");
+    }
+  }
+}
+
+double defaultK(RobustLoss loss) {
+  return loss == RobustLoss::Tukey ? 4.685 : 1.345;
+}
+
+double robustWeight(RobustLoss loss, double r, double c) {
+  switch (loss) {
+    case RobustLoss::Huber: return r <= c ? 1.0 : c / r;
+    case RobustLoss::Tukey: {
+      if (r >= c) return 0.0;
+      const double u = 1.0 - (r / c) * (r / c);
+      return u * u;
+    }
+    case RobustLoss::None: break;
+  }
+  return 1.0;
+}
+
+// The closest surface point to p. `bound` is a distance within which a
+// surface point is known to exist (the previous correspondence moved with
+// the points): searching only that far is exact and prunes most of the BVH.
+SurfacePoint closest(const MeshLocator& locator, const Eigen::Vector3d& p, double bound, double max_distance) {
+  if (bound < max_distance) {
+    SurfacePoint sp = locator.closestPointWithin(p, bound * (1.0 + 1e-9) + 1e-9);
+    if (sp.face >= 0) return sp;
+  }
+  if (std::isfinite(max_distance)) return locator.closestPointWithin(p, max_distance);
+  return locator.closestPoint(p);
+}
+
+// Correspondences of the transformed points, after distance rejection,
+// trimming and robust weighting. `previous` (per point, the last closest
+// point, NaN when unknown) speeds up the search and is updated.
+std::vector<Correspondence> correspond(std::span<const Eigen::Vector3d> moving, const IcpSurface& fixed,
+                                       const Eigen::Isometry3d& T, const IcpOptions& options,
+                                       std::vector<Eigen::Vector3d>& previous) {
+  std::vector<Correspondence> c;
+  c.reserve(moving.size());
+  const double inf = std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0; i < moving.size(); ++i) {
+    const Eigen::Vector3d p = T * moving[i];
+    const double bound = previous[i].allFinite() ? (p - previous[i]).norm() : inf;
+    const SurfacePoint sp = closest(fixed.locator(), p, bound, options.max_correspondence_distance_mm);
+    if (sp.face < 0 || sp.distance > options.max_correspondence_distance_mm) {
+      previous[i].setConstant(std::numeric_limits<double>::quiet_NaN());
+      continue;
+    }
+    previous[i] = sp.point;
+    Correspondence k;
+    k.index = static_cast<int>(i);
+    k.p = p;
+    k.q = sp.point;
+    k.n = fixed.faceNormals().row(sp.face).transpose();
+    k.distance = sp.distance;
+    c.push_back(k);
+  }
+  if (options.trim_fraction < 1.0) {
+    const auto keep = std::max<std::size_t>(
+        3, static_cast<std::size_t>(std::llround(options.trim_fraction * static_cast<double>(moving.size()))));
+    if (keep < c.size()) {
+      // Ties broken by index so the kept set never depends on the sort's whims.
+      auto closer = [](const Correspondence& a, const Correspondence& b) {
+        return a.distance < b.distance || (a.distance == b.distance && a.index < b.index);
+      };
+      std::nth_element(c.begin(), c.begin() + static_cast<std::ptrdiff_t>(keep), c.end(), closer);
+      c.resize(keep);
+      std::sort(c.begin(), c.end(), [](const auto& a, const auto& b) { return a.index < b.index; });
+    }
+  }
+  if (options.loss != RobustLoss::None && !c.empty()) {
+    std::vector<double> d(c.size());
+    for (std::size_t i = 0; i < c.size(); ++i) d[i] = c[i].distance;
+    auto mid = d.begin() + static_cast<std::ptrdiff_t>(d.size() / 2);
+    std::nth_element(d.begin(), mid, d.end());
+    // Distances are |residuals|, so their median is the MAD of a zero-mean residual.
+    const double scale = std::max(1.4826 * *mid, options.min_robust_scale_mm);
+    const double k = options.robust_k > 0.0 ? options.robust_k : defaultK(options.loss);
+    for (auto& x : c) x.weight = robustWeight(options.loss, x.distance, k * scale);
+    std::erase_if(c, [](const Correspondence& x) { return x.weight <= 0.0; });
+  }
+  return c;
+}
+
+// Weighted least-squares rigid motion (Kabsch/Umeyama with weights) taking
+// the current points onto their closest points.
+Eigen::Isometry3d solvePointToPoint(const std::vector<Correspondence>& c) {
+  double wsum = 0.0;
+  Eigen::Vector3d cp = Eigen::Vector3d::Zero();
+  Eigen::Vector3d cq = Eigen::Vector3d::Zero();
+  for (const auto& x : c) {
+    wsum += x.weight;
+    cp += x.weight * x.p;
+    cq += x.weight * x.q;
+  }
+  cp /= wsum;
+  cq /= wsum;
+  Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
+  for (const auto& x : c) H += x.weight * (x.p - cp) * (x.q - cq).transpose();
+  Eigen::JacobiSVD<Eigen::Matrix3d> svd(H, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Matrix3d D = Eigen::Matrix3d::Identity();
+  D(2, 2) = (svd.matrixV() * svd.matrixU().transpose()).determinant() < 0.0 ? -1.0 : 1.0;
+  Eigen::Isometry3d delta = Eigen::Isometry3d::Identity();
+  delta.linear() = svd.matrixV() * D * svd.matrixU().transpose();
+  delta.translation() = cq - delta.linear() * cp;
+  return delta;
+}
+
+// One Gauss-Newton step of the point-to-plane error, linearised about the
+// points' weighted centroid (better conditioned than about the origin).
+Eigen::Isometry3d solvePointToPlane(const std::vector<Correspondence>& c) {
+  double wsum = 0.0;
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+  for (const auto& x : c) {
+    wsum += x.weight;
+    centre += x.weight * x.p;
+  }
+  centre /= wsum;
+  Eigen::Matrix<double, 6, 6> A = Eigen::Matrix<double, 6, 6>::Zero();
+  Eigen::Matrix<double, 6, 1> b = Eigen::Matrix<double, 6, 1>::Zero();
+  for (const auto& x : c) {
+    Eigen::Matrix<double, 6, 1> J;
+    J.head<3>() = (x.p - centre).cross(x.n);
+    J.tail<3>() = x.n;
+    const double r = x.n.dot(x.p - x.q);
+    A.selfadjointView<Eigen::Lower>().rankUpdate(J, x.weight);
+    b -= x.weight * r * J;
+  }
+  A = A.selfadjointView<Eigen::Lower>();
+  // A whisper of damping keeps sliding directions (planes, cylinders) at zero
+  // motion instead of letting round-off move along them.
+  A.diagonal().array() += 1e-12 * (A.trace() + 1.0);
+  const Eigen::Matrix<double, 6, 1> x = A.ldlt().solve(b);
+  Eigen::Isometry3d delta = Eigen::Isometry3d::Identity();
+  delta.linear() = so3Exp(x.head<3>());
+  delta.translation() = centre + x.tail<3>() - delta.linear() * centre;
+  return delta;
+}
+
+double weightedRms(const std::vector<Correspondence>& c) {
+  double wsum = 0.0;
+  double s = 0.0;
+  for (const auto& x : c) {
+    wsum += x.weight;
+    s += x.weight * x.distance * x.distance;
+  }
+  return wsum > 0.0 ? std::sqrt(s / wsum) : 0.0;
+}
+
+}  // namespace
+
+IcpSurface::IcpSurface(const TriangleMesh& mesh) {
+  if (mesh.empty()) {
+    throw InvalidArgumentError("ICP: the fixed surface '" + mesh.name +
+                               "' has no triangles: give a surface mesh, not an empty mesh or a point cloud");
+  }
+  locator_ = std::make_shared<const MeshLocator>(mesh);
+  face_normals_ = mrsns::faceNormals(mesh);
+  // Exact moments of uniform density over each triangle:
+  //   int x dA = A s / 3,  int x x^T dA = A / 12 (sum v v^T + s s^T),  s = a + b + c.
+  double area = 0.0;
+  Eigen::Vector3d first = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d second = Eigen::Matrix3d::Zero();
+  for (Eigen::Index f = 0; f < mesh.faceCount(); ++f) {
+    const Eigen::Vector3d a = mesh.vertices.row(mesh.faces(f, 0)).transpose();
+    const Eigen::Vector3d b = mesh.vertices.row(mesh.faces(f, 1)).transpose();
+    const Eigen::Vector3d c = mesh.vertices.row(mesh.faces(f, 2)).transpose();
+    const double A = 0.5 * (b - a).cross(c - a).norm();
+    const Eigen::Vector3d sum = a + b + c;
+    area += A;
+    first += A * sum / 3.0;
+    second += A / 12.0 * (a * a.transpose() + b * b.transpose() + c * c.transpose() + sum * sum.transpose());
+  }
+  if (!(area > 0.0)) {
+    throw InvalidArgumentError("ICP: the fixed surface '" + mesh.name + "' has zero area: give a real surface mesh");
+  }
+  centroid_ = first / area;
+  covariance_ = second / area - centroid_ * centroid_.transpose();
+}
+
+IcpResult registerSurface(std::span<const Eigen::Vector3d> moving, const TriangleMesh& fixed,
+                          const Eigen::Isometry3d& initial_fixed_T_moving, const IcpOptions& options) {
+  checkPoints(moving);
+  checkOptions(options);
+  return registerSurface(moving, IcpSurface(fixed), initial_fixed_T_moving, options);
+}
+
+IcpResult registerSurface(std::span<const Eigen::Vector3d> moving, const IcpSurface& fixed,
+                          const Eigen::Isometry3d& initial_fixed_T_moving, const IcpOptions& options) {
+  checkPoints(moving);
+  checkOptions(options);
+  if (!initial_fixed_T_moving.matrix().allFinite()) {
+    throw InvalidArgumentError("ICP: the initial transform holds NaN or infinite values");
+  }
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  for (const auto& p : moving) centroid += p;
+  centroid /= static_cast<double>(moving.size());
+  double radius = 0.0;
+  for (const auto& p : moving) radius = std::max(radius, (p - centroid).norm());
+
+  IcpResult result;
+  Eigen::Isometry3d T = initial_fixed_T_moving;
+  std::vector<Eigen::Vector3d> previous(moving.size(),
+                                        Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN()));
+  double previous_rms = std::numeric_limits<double>::infinity();
+  bool coarse = options.method == IcpMethod::PointToPlane && options.point_to_point_warmup_ratio > 0.0;
+  for (int iteration = 0; iteration < options.max_iterations; ++iteration) {
+    const auto c = correspond(moving, fixed, T, options, previous);
+    if (c.size() < 3) {
+      throw ComputationError("ICP: only " + std::to_string(c.size()) + " of " + std::to_string(moving.size()) +
+                             " points have a surface point within the correspondence distance at iteration " +
+                             std::to_string(iteration) +
+                             ": start closer (initial alignment) or raise max_correspondence_distance_mm");
+    }
+    const double rms = weightedRms(c);
+    if (iteration == 0) {
+      // All points, before any trimming decides which to trust.
+      result.initial_rms_mm = rms;
+    }
+    const bool warmup_step = coarse;
+    const bool plane_step = options.method == IcpMethod::PointToPlane && c.size() >= 6 && !coarse;
+    const Eigen::Isometry3d delta = plane_step ? solvePointToPlane(c) : solvePointToPoint(c);
+    // Largest displacement of any moving point by this step (bounded over the set's sphere).
+    const Eigen::Vector3d centre_before = T * centroid;
+    const double motion = (delta * centre_before - centre_before).norm() + rotationAngle(delta.linear()) * radius;
+    T = delta * T;
+    result.iterations = iteration + 1;
+    // Far from the solution, point-to-plane steps can slide into a wrong
+    // (e.g. flipped) basin; point-to-point steps have the wider basin. Switch
+    // once a step moves the points less than their distance to the surface.
+    if (coarse && motion <= options.point_to_point_warmup_ratio * rms) coarse = false;
+    const bool small_motion = motion < options.motion_tolerance_mm;
+    const bool flat_rms = std::abs(previous_rms - rms) <= options.relative_rms_tolerance * std::max(rms, 1e-12);
+    previous_rms = rms;
+    // Convergence counts only for steps of the requested method.
+    if ((small_motion || flat_rms) && !warmup_step) {
+      result.converged = true;
+      break;
+    }
+  }
+  if (options.max_iterations == 0) result.converged = true;
+  result.fixed_T_moving = T;
+
+  // Figures at the result: the last correspondences with the final transform.
+  const auto c = correspond(moving, fixed, T, options, previous);
+  result.inliers.reserve(c.size());
+  double sum = 0.0;
+  for (const auto& x : c) {
+    result.inliers.push_back(x.index);
+    sum += x.distance * x.distance;
+  }
+  result.rms_mm = c.empty() ? 0.0 : std::sqrt(sum / static_cast<double>(c.size()));
+  result.inlier_fraction = static_cast<double>(c.size()) / static_cast<double>(moving.size());
+  result.distances_mm.resize(moving.size());
+  for (std::size_t i = 0; i < moving.size(); ++i) {
+    result.distances_mm[i] = fixed.locator().closestPoint(T * moving[i]).distance;
+  }
+  if (options.max_iterations == 0) result.initial_rms_mm = result.rms_mm;
+  logger()->debug("ICP: {} iterations, rms {:.4f} mm (start {:.4f}), inliers {:.3f}, converged {}", result.iterations,
+                  result.rms_mm, result.initial_rms_mm, result.inlier_fraction, result.converged);
+  return result;
+}
+
+Eigen::Isometry3d initialAlignmentFromLandmarks(std::span<const Eigen::Vector3d> moving_landmarks,
+                                                std::span<const Eigen::Vector3d> fixed_landmarks) {
+  PairedPointOptions options;
+  options.leave_one_out = false;
+  const auto r = registerPairedPoints(moving_landmarks, fixed_landmarks, options);
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = r.rotation;
+  T.translation() = r.translation;
+  return T;
+}
+
+namespace {
+
+struct Principal {
+  Eigen::Vector3d centroid;
+  Eigen::Matrix3d axes;  // columns, largest extent first, det +1
+  Eigen::Vector3d sd;    // standard deviations along the axes
+};
+
+Principal principal(const Eigen::Vector3d& centroid, const Eigen::Matrix3d& cov) {
+  Principal pr;
+  pr.centroid = centroid;
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(cov);
+  for (int k = 0; k < 3; ++k) {
+    pr.axes.col(k) = eig.eigenvectors().col(2 - k);
+    pr.sd(k) = std::sqrt(std::max(eig.eigenvalues()(2 - k), 0.0));
+  }
+  if (pr.axes.determinant() < 0.0) pr.axes.col(2) = -pr.axes.col(2);
+  return pr;
+}
+
+}  // namespace
+
+PrincipalAxesResult initialAlignmentFromPrincipalAxes(std::span<const Eigen::Vector3d> moving, const IcpSurface& fixed,
+                                                      const PrincipalAxesOptions& options) {
+  checkPoints(moving);
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  for (const auto& p : moving) centroid += p;
+  centroid /= static_cast<double>(moving.size());
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  for (const auto& p : moving) cov += (p - centroid) * (p - centroid).transpose();
+  const auto pm = principal(centroid, cov / static_cast<double>(moving.size()));
+  const auto pf = principal(fixed.surfaceCentroid(), fixed.surfaceCovariance());
+  if (pm.sd(2) <= 1e-3 * pm.sd(0) || pf.sd(2) <= 1e-3 * pf.sd(0)) {
+    throw ComputationError(
+        "principal-axes alignment: the points or the surface are (nearly) planar or linear, so their axes do not "
+        "define a rotation: use landmarks for the initial alignment");
+  }
+  PrincipalAxesResult result;
+  result.moving_extent_mm = pm.sd;
+  result.fixed_extent_mm = pf.sd;
+  const double signs[4][3] = {{1, 1, 1}, {-1, -1, 1}, {-1, 1, -1}, {1, -1, -1}};
+  double best = std::numeric_limits<double>::infinity();
+  IcpOptions icp = options.icp;
+  icp.max_iterations = options.refine_iterations;
+  for (int k = 0; k < 4; ++k) {
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.linear() = pf.axes * Eigen::Vector3d(signs[k][0], signs[k][1], signs[k][2]).asDiagonal() * pm.axes.transpose();
+    T.translation() = pf.centroid - T.linear() * pm.centroid;
+    double rms = std::numeric_limits<double>::infinity();
+    try {
+      rms = registerSurface(moving, fixed, T, icp).rms_mm;
+    } catch (const ComputationError&) {
+      // This candidate leaves too few points near the surface: it loses.
+    }
+    result.candidate_rms_mm.push_back(rms);
+    if (rms < best) {
+      best = rms;
+      result.chosen = k;
+      result.fixed_T_moving = T;
+    }
+  }
+  return result;
+}
+
+}  // namespace mrsns::registration
