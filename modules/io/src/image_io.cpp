@@ -252,8 +252,10 @@ ImageReadResult readImageFile(const std::filesystem::path& path) {
     if (format != ImageFormat::Nifti || std::string(e.what()).find("orthonormal") == std::string::npos) throw;
     const auto repaired = detail::niftiWithQformFromSform(path);
     if (!repaired) throw;
-    logger()->info("NIfTI '{}': sform direction is orthonormal only within {:.2g}; reading its nearest rotation",
-                   path.string(), repaired->deviation);
+    // Float rounding of a rotation is routine; a visible shear is worth a warning.
+    logger()->log(repaired->deviation > 1e-4 ? spdlog::level::warn : spdlog::level::debug,
+                  "NIfTI '{}': sform direction is orthonormal only within {:.2g}; reading its nearest rotation",
+                  path.string(), repaired->deviation);
     struct Remove {
       std::filesystem::path p;
       ~Remove() {
