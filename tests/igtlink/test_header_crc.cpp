@@ -2,7 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <string_view>
+#include <vector>
 
 #include "mrsns/core/error.h"
 #include "mrsns/igtlink/crc64.h"
@@ -91,6 +93,35 @@ TEST(Timestamp, RejectsNegativeNanAndOverflow) {
   EXPECT_THROW(timestampFromSeconds(-1.0), InvalidArgumentError);
   EXPECT_THROW(timestampFromSeconds(std::nan("")), InvalidArgumentError);
   EXPECT_THROW(timestampFromSeconds(4294967296.0), InvalidArgumentError);
+}
+
+}  // namespace
+}  // namespace mrsns::igtlink
+
+namespace mrsns::igtlink {
+namespace {
+
+/// Bit-at-a-time definition of the CRC, independent of the table code.
+std::uint64_t crc64BitByBit(std::span<const std::uint8_t> data) {
+  std::uint64_t crc = 0;
+  for (const std::uint8_t byte : data) {
+    crc ^= std::uint64_t{byte} << 56;
+    for (int bit = 0; bit < 8; ++bit) crc = (crc & (1ULL << 63)) ? (crc << 1) ^ 0x42F0E1EBA9EA3693ULL : crc << 1;
+  }
+  return crc;
+}
+
+TEST(Crc64, SlicedTablesAgreeWithTheBitwiseDefinitionAtEveryLength) {
+  std::vector<std::uint8_t> data(1031);
+  std::uint32_t state = 12345;
+  for (auto& b : data) {
+    state = state * 1664525u + 1013904223u;
+    b = static_cast<std::uint8_t>(state >> 24);
+  }
+  for (std::size_t n = 0; n <= data.size(); n += (n < 40 ? 1 : 97)) {
+    const auto part = std::span<const std::uint8_t>(data).first(n);
+    EXPECT_EQ(crc64(part), crc64BitByBit(part)) << n;
+  }
 }
 
 }  // namespace
