@@ -165,7 +165,7 @@ ParsedHeader parseNrrdHeader(std::string_view text, const std::string& source, c
     const std::size_t custom = line.find(":=");
     const std::size_t colon = line.find(": ");
     if (custom != std::string_view::npos && (colon == std::string_view::npos || custom < colon)) {
-      const std::string_view key = line.substr(0, custom);
+      const std::string_view key = trim(line.substr(0, custom));
       const std::string_view value = trim(line.substr(custom + 2));
       if (auto frame_key = splitFrameKey(key, source, line_number)) {
         frame_fields.push_back({frame_key->first, std::move(frame_key->second), std::string(value), line_number});

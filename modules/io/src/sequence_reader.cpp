@@ -166,7 +166,17 @@ struct SequenceReader::Impl {
     data.seekg(static_cast<std::streamoff>(storage.data_offset));
   }
 
+  // zlib counts in 32 bits: inflate frames larger than that in pieces.
   void inflateInto(std::size_t index, std::span<std::uint8_t> out) {
+    constexpr std::size_t kMaxPiece = std::size_t{1} << 30;
+    while (!out.empty()) {
+      const auto piece = out.first(std::min(out.size(), kMaxPiece));
+      inflatePiece(index, piece);
+      out = out.subspan(piece.size());
+    }
+  }
+
+  void inflatePiece(std::size_t index, std::span<std::uint8_t> out) {
     zs.next_out = out.data();
     zs.avail_out = static_cast<uInt>(out.size());
     while (zs.avail_out > 0) {
