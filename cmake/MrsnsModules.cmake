@@ -19,8 +19,10 @@ endfunction()
 # mrsns_add_test(<module> [LIBS ...])
 #
 # One GoogleTest program per tests/<module> folder (every *.cpp in it), each
-# TEST registered with CTest. Tests find the shared data through the
-# MRSNS_DATA_DIR environment variable, set here from the cache variable.
+# TEST registered with CTest. Tests find the shared data like the programs do
+# (core/data_dir.h: MRSNS_DATA_DIR from the environment, else the cache
+# variable compiled in) and the build tree through MRSNS_TEST_BINARY_DIR
+# (tests/support).
 function(mrsns_add_test module)
   cmake_parse_arguments(ARG "" "" "LIBS" ${ARGN})
   file(GLOB _sources CONFIGURE_DEPENDS "${CMAKE_CURRENT_SOURCE_DIR}/*.cpp")
@@ -34,8 +36,7 @@ function(mrsns_add_test module)
   gtest_discover_tests(${_exe}
     TEST_PREFIX "${module}."
     DISCOVERY_MODE PRE_TEST
-    PROPERTIES ENVIRONMENT "MRSNS_DATA_DIR=${MRSNS_DATA_DIR};MRSNS_BINARY_DIR=${CMAKE_BINARY_DIR}"
-               LABELS ${module})
+    PROPERTIES LABELS ${module})
 endfunction()
 
 # Collects the link closure of a target (names of every library it pulls in).

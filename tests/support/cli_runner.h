@@ -20,6 +20,7 @@ struct CliResult {
 
 inline std::filesystem::path cliBinary() {
   const char* binary = std::getenv("MRSNS_BINARY_DIR");
+  if (binary == nullptr) binary = MRSNS_TEST_BINARY_DIR;
   return std::filesystem::path(binary ? binary : ".") / "app" / "cli" / "mrsns-cli";
 }
 

@@ -15,6 +15,7 @@ namespace mrsns::test {
 /// Testing/ folder, or the system temp directory).
 inline std::filesystem::path scratchDirectory(const std::string& name) {
   const char* binary = std::getenv("MRSNS_BINARY_DIR");
+  if (binary == nullptr) binary = MRSNS_TEST_BINARY_DIR;
   std::filesystem::path base =
       binary ? std::filesystem::path(binary) / "Testing" / "scratch" : std::filesystem::temp_directory_path() / "mrsns-tests";
   const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
