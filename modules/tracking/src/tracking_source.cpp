@@ -73,10 +73,18 @@ void TrackingSource::publish(std::span<const ToolUpdate> updates) noexcept {
           repository_->setTransform(u.name, usable ? orthonormalize(m) : Eigen::Isometry3d::Identity(), u.status,
                                     u.timestamp);
         }
-      } else if (isRigid(m, 1e-6)) {
-        repository_->setTransform(u.name, u.to_T_from, u.status, u.timestamp);
       } else if (isRigid(m, kRoundingTolerance)) {
-        repository_->setTransform(u.name, orthonormalize(m), u.status, u.timestamp);
+        // Stored as given when the repository accepts it (orthonormal within
+        // its 1e-6), else as the nearest rigid transform.
+        bool stored = false;
+        if (isRigid(m, 1e-6)) {
+          try {
+            repository_->setTransform(u.name, u.to_T_from, u.status, u.timestamp);
+            stored = true;
+          } catch (const InvalidArgumentError&) {  // determinant just outside 1 +- 1e-6
+          }
+        }
+        if (!stored) repository_->setTransform(u.name, orthonormalize(m), u.status, u.timestamp);
       } else {
         ++rejected;
         const auto name = TransformName::parse(u.name);

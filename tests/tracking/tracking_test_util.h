@@ -1,0 +1,82 @@
+#pragma once
+// Shared fixtures of the tracking tests: a small closed mesh, a client that
+// records what it receives with receive times, float32 wire tolerances.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+#include <mutex>
+#include <vector>
+
+#include "mrsns/core/mesh.h"
+#include "mrsns/igtlink/client.h"
+#include "net_test_util.h"
+
+namespace mrsns::tracking::test {
+
+using igtlink::test::waitFor;
+
+/// A closed tetrahedron (outward normals by right-hand winding), 10 mm edges.
+inline TriangleMesh tetrahedron(double offset = 0.0) {
+  TriangleMesh mesh;
+  mesh.vertices.resize(4, 3);
+  mesh.vertices << 0, 0, 0, 10, 0, 0, 0, 10, 0, 0, 0, 10;
+  mesh.vertices.array() += offset;
+  mesh.faces.resize(4, 3);
+  mesh.faces << 0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3;
+  return mesh;
+}
+
+/// float32 round to nearest: relative error at most 2^-24 per matrix entry.
+inline bool equalAsFloat32(const Eigen::Matrix4d& received, const Eigen::Matrix4d& sent) {
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 4; ++c) {
+      const double tol = std::ldexp(std::abs(sent(r, c)), -24) + 1e-30;
+      if (std::abs(received(r, c) - sent(r, c)) > tol) return false;
+    }
+  }
+  return true;
+}
+
+struct ReceivedMessage {
+  igtlink::Message message;
+  std::chrono::steady_clock::time_point at;
+};
+
+/// An mrsns Client on loopback that keeps everything it receives.
+class Recorder {
+ public:
+  explicit Recorder(std::uint16_t port) {
+    igtlink::ClientOptions options;
+    options.port = port;
+    client_ = std::make_unique<igtlink::Client>(options);
+    client_->onMessage([this](const igtlink::Message& m) {
+      std::lock_guard lock(mutex_);
+      messages_.push_back({m, std::chrono::steady_clock::now()});
+    });
+    client_->start();
+  }
+  ~Recorder() { client_->stop(); }
+  std::size_t size() const {
+    std::lock_guard lock(mutex_);
+    return messages_.size();
+  }
+  std::size_t count(const std::string& type) const {
+    std::lock_guard lock(mutex_);
+    std::size_t n = 0;
+    for (const auto& r : messages_) n += r.message.header.type == type ? 1 : 0;
+    return n;
+  }
+  std::vector<ReceivedMessage> messages() const {
+    std::lock_guard lock(mutex_);
+    return messages_;
+  }
+  igtlink::Client& client() { return *client_; }
+
+ private:
+  mutable std::mutex mutex_;
+  std::vector<ReceivedMessage> messages_;
+  std::unique_ptr<igtlink::Client> client_;
+};
+
+}  // namespace mrsns::tracking::test
