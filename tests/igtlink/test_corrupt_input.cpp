@@ -181,6 +181,22 @@ TEST(CorruptInput, PolyDataCountsThatOverflowOrDisagree) {
   }
 }
 
+TEST(CorruptInput, PolyDataCellThatLeavesNoRoomForTheNextCount) {
+  // Found by fuzz_igtlink_decoder: three triangles on four points take 12 words;
+  // a first cell claiming 10 corners (all valid indices) used to be accepted and
+  // written past the 9-index array (visible under AddressSanitizer).
+  PolyDataContent p;
+  p.points.resize(4, 3);
+  p.points.setZero();
+  p.polygons.add({0, 1, 2});
+  p.polygons.add({1, 2, 3});
+  p.polygons.add({2, 3, 0});
+  auto b = encodeMessage(makeMessage("M", p));
+  putU32(b, kHeaderSize + 40 + 48, 10);
+  refreshCrc(b);
+  expectFormatError([&] { decodeMessage(b); }, "cell 0 claims 10 points");
+}
+
 TEST(CorruptInput, PolyDataAttributeProblems) {
   PolyDataContent p = triangle();
   PolyDataAttribute a;

@@ -77,7 +77,8 @@ CellArray readCells(ByteReader& r, std::uint32_t count, std::uint32_t size_bytes
   for (std::uint32_t c = 0; c < count; ++c) {
     const std::uint32_t n = r.u32(count_field);
     ++used;
-    if (n > words - used) {
+    // Every later cell still needs its count word: n may use only what is left after those.
+    if (n > words - used - (count - 1 - c)) {
       r.fail(size_field, "is too small: cell " + std::to_string(c) + " claims " + std::to_string(n) + " points");
     }
     r.u32Array(cells.indices.data() + filled, n, size_field);
