@@ -9,6 +9,7 @@
 #include "mrsns/core/error.h"
 #include "mrsns/igtlink/crc64.h"
 #include "mrsns/igtlink/header.h"
+#include "mrsns/igtlink/message.h"
 
 namespace mrsns::igtlink {
 namespace {
@@ -93,6 +94,8 @@ TEST(Timestamp, RejectsNegativeNanAndOverflow) {
   EXPECT_THROW(timestampFromSeconds(-1.0), InvalidArgumentError);
   EXPECT_THROW(timestampFromSeconds(std::nan("")), InvalidArgumentError);
   EXPECT_THROW(timestampFromSeconds(4294967296.0), InvalidArgumentError);
+  EXPECT_THROW(makeMessage("T", TransformContent{}, -5.0), InvalidArgumentError);
+  EXPECT_EQ(makeMessage("T", TransformContent{}).header.timestamp, 0u);  // 0 = unset
 }
 
 }  // namespace

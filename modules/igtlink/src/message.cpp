@@ -62,7 +62,7 @@ Message makeMessage(std::string type, std::string device_name, Content content, 
   Message m;
   m.header.type = std::move(type);
   m.header.device_name = std::move(device_name);
-  m.header.timestamp = timestamp_s > 0.0 ? timestampFromSeconds(timestamp_s) : 0;
+  m.header.timestamp = timestamp_s == 0.0 ? 0 : timestampFromSeconds(timestamp_s);  // negative or NaN throws
   m.content = std::move(content);
   return m;
 }
