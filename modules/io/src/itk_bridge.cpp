@@ -3,6 +3,7 @@
 // headers here (see itk_bridge.h for why).
 #include "itk_bridge.h"
 
+#include <gdcmTrace.h>
 #include <itkAffineTransform.h>
 #include <itkCompositeTransform.h>
 #include <itkGDCMImageIO.h>
@@ -60,6 +61,11 @@ void initializeItk() {
     itk::MatlabTransformIOFactory::RegisterOneFactory();
     itk::TransformFactoryBase::RegisterDefaultTransforms();
     itk::Object::GlobalWarningDisplayOff();
+    // GDCM prints decoder errors (e.g. a truncated JPEG 2000 slice) to
+    // stderr as well as failing; the failure reaches us as an ITK exception.
+    gdcm::Trace::WarningOff();
+    gdcm::Trace::ErrorOff();
+    gdcm::Trace::DebugOff();
   });
 }
 
