@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 #include <zlib.h>
 
+#include <algorithm>
 #include <cstring>
 #include <fstream>
 #include <random>
@@ -38,6 +39,16 @@ std::vector<ImageVolume> allPixelTypes() {
           syntheticVolume<std::uint16_t>(PixelType::UInt16), syntheticVolume<std::int16_t>(PixelType::Int16),
           syntheticVolume<std::uint32_t>(PixelType::UInt32), syntheticVolume<std::int32_t>(PixelType::Int32),
           syntheticVolume<float>(PixelType::Float32),        syntheticVolume<double>(PixelType::Float64)};
+}
+
+void writeBytes(const std::filesystem::path& path, const std::string& bytes) {
+  std::ofstream out(path, std::ios::binary);
+  out << bytes;
+}
+
+std::string slurp(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
 }
 
 void expectSameGeometry(const ImageVolume& a, const ImageVolume& b, double tolerance) {
@@ -108,6 +119,27 @@ TEST(ImageIo, DicomSeriesJpeg2000GeometryAndNrrdRoundTrip) {
   expectSameGeometry(ct, back, 1e-9);
   EXPECT_EQ(back.pixel_type, ct.pixel_type);
   EXPECT_TRUE(back.data == ct.data);
+}
+
+TEST(ImageIo, DicomSeriesWithATruncatedSliceIsAFormatError) {
+  MRSNS_REQUIRE_DATA(folder, "ct/totalsegmentator/example_ct_dicom");
+  // A scratch copy (under the build tree) with one JPEG 2000 slice cut short.
+  const auto dir = test::scratchDirectory("img") / "series";
+  std::filesystem::create_directories(dir);
+  std::vector<std::filesystem::path> slices;
+  for (const auto& entry : std::filesystem::directory_iterator(folder)) slices.push_back(entry.path());
+  std::sort(slices.begin(), slices.end());
+  ASSERT_EQ(slices.size(), 20U);
+  for (const auto& s : slices) std::filesystem::copy_file(s, dir / s.filename());
+  const auto victim = dir / slices[7].filename();
+  const std::string bytes = slurp(victim);
+  writeBytes(victim, bytes.substr(0, bytes.size() * 2 / 3));
+  try {
+    (void)readImage(dir);
+    FAIL() << "a series with a truncated slice was accepted";
+  } catch (const FormatError& e) {
+    EXPECT_THAT(e.what(), HasSubstr(dir.string()));
+  }
 }
 
 TEST(ImageIo, SingleDicomFile) {
@@ -271,16 +303,6 @@ TEST(ImageIo, LabelStatisticsCountsAndRefusesContinuousImages) {
   const float half = 0.5F;
   std::memcpy(f.data.data(), &half, 4);
   EXPECT_FALSE(labelStatistics(f).has_value());
-}
-
-void writeBytes(const std::filesystem::path& path, const std::string& bytes) {
-  std::ofstream out(path, std::ios::binary);
-  out << bytes;
-}
-
-std::string slurp(const std::filesystem::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
 }
 
 template <typename E>
