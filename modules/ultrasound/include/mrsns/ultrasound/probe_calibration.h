@@ -1,0 +1,67 @@
+#pragma once
+// The whole fCal workflow on recorded sequences: every frame segmented (in
+// parallel), paired with its ProbeToReference pose, the spatial calibration
+// on one sequence and its error figures on another.
+#include <Eigen/Geometry>
+#include <cstddef>
+#include <string>
+#include <vector>
+
+#include "mrsns/core/tracked_frame.h"
+#include "mrsns/io/device_set.h"
+#include "mrsns/ultrasound/nwire_segmentation.h"
+#include "mrsns/ultrasound/spatial_calibration.h"
+
+namespace mrsns::ultrasound {
+
+struct FrameSegmentationReport {
+  std::size_t frame_index = 0;
+  SegmentationStatus status = SegmentationStatus::NoCandidates;
+  bool pose_valid = false;
+  std::string reason;  ///< empty when the frame was used
+};
+
+struct SequenceSegmentation {
+  std::vector<CalibrationFrame> frames;          ///< segmented frames with a valid probe pose
+  std::vector<FrameSegmentationReport> reports;  ///< one per frame of the sequence
+  std::size_t total_frames = 0;
+  std::size_t segmented_frames = 0;
+  std::size_t frames_without_pose = 0;
+  double seconds = 0.0;
+};
+
+/// A frame's pixels as an MF image (PLUS's image frame): MF/MFA are used
+/// as stored, UF/UN/MN are flipped. Throws UnsupportedError for other
+/// orientations or pixel formats than 8-bit single-component 2D frames.
+std::vector<std::uint8_t> toMfPixels(const TrackedSequence& sequence, const TrackedFrame& frame);
+
+/// Segments every frame of `sequence` and pairs it with `probe_to_reference`
+/// (e.g. "ProbeToReference", computed through the frame's transforms).
+/// Throws FrameError when no frame has that transform, InvalidArgumentError
+/// when frames lack pixels. `threads` 0 uses the hardware concurrency.
+SequenceSegmentation segmentCalibrationSequence(const TrackedSequence& sequence, const io::PhantomDefinition& phantom,
+                                                const NWireSegmentationOptions& options,
+                                                const std::string& probe_to_reference = "ProbeToReference",
+                                                unsigned threads = 0);
+
+/// PhantomToReference of the configuration; throws FormatError naming the
+/// file when it has none (register the phantom first).
+Eigen::Isometry3d phantomToReference(const io::DeviceSetConfiguration& config);
+
+/// The wire names of a phantom, pattern by pattern.
+std::vector<std::string> wireNames(const io::PhantomDefinition& phantom);
+
+struct ProbeCalibrationRun {
+  SpatialCalibrationResult result;
+  SequenceSegmentation calibration;
+  SequenceSegmentation validation;
+  CalibrationErrorReport validation_errors;
+  double seconds = 0.0;
+};
+
+/// Calibrates on `calibration` and evaluates on `validation` with the
+/// phantom, segmentation parameters and PhantomToReference of `config`.
+ProbeCalibrationRun calibrateProbe(const io::DeviceSetConfiguration& config, const TrackedSequence& calibration,
+                                   const TrackedSequence& validation, const SpatialCalibrationOptions& options = {});
+
+}  // namespace mrsns::ultrasound

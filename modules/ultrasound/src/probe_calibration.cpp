@@ -1,0 +1,148 @@
+#include "mrsns/ultrasound/probe_calibration.h"
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <exception>
+#include <mutex>
+#include <thread>
+
+#include "mrsns/core/error.h"
+#include "mrsns/core/frame_poses.h"
+#include "mrsns/core/log.h"
+#include "mrsns/core/rigid.h"
+
+namespace mrsns::ultrasound {
+
+std::vector<std::uint8_t> toMfPixels(const TrackedSequence& sequence, const TrackedFrame& frame) {
+  const auto& g = sequence.geometry;
+  if (sequence.pixel_format.scalar != PixelType::UInt8 || sequence.pixel_format.components != 1 || g.size[2] != 1) {
+    throw UnsupportedError("N-wire segmentation needs 8-bit single-component 2D B-mode frames");
+  }
+  if (frame.pixels.size() != sequence.frameBytes()) {
+    throw InvalidArgumentError("a frame holds " + std::to_string(frame.pixels.size()) + " bytes, expected " +
+                               std::to_string(sequence.frameBytes()) + " (read the sequence with its pixels)");
+  }
+  const std::string o = sequence.orientation;
+  if (o.size() < 2 || (o[0] != 'M' && o[0] != 'U') || (o[1] != 'F' && o[1] != 'N')) {
+    throw UnsupportedError("ultrasound image orientation '" + o + "' is not supported (expected MF, UF, MN or UN)");
+  }
+  const bool flip_x = o[0] == 'U', flip_y = o[1] == 'N';
+  if (!flip_x && !flip_y) return frame.pixels;
+  const auto w = static_cast<std::size_t>(g.size[0]), h = static_cast<std::size_t>(g.size[1]);
+  std::vector<std::uint8_t> out(frame.pixels.size());
+  for (std::size_t y = 0; y < h; ++y) {
+    const std::size_t sy = flip_y ? h - 1 - y : y;
+    for (std::size_t x = 0; x < w; ++x) out[y * w + x] = frame.pixels[sy * w + (flip_x ? w - 1 - x : x)];
+  }
+  return out;
+}
+
+SequenceSegmentation segmentCalibrationSequence(const TrackedSequence& sequence, const io::PhantomDefinition& phantom,
+                                                const NWireSegmentationOptions& options,
+                                                const std::string& probe_to_reference, unsigned threads) {
+  const auto start = std::chrono::steady_clock::now();
+  SequenceSegmentation out;
+  out.total_frames = sequence.frames.size();
+  const auto poses = extractFramePoses(sequence.frames, probe_to_reference);
+  std::vector<const FramePose*> pose_of(sequence.frames.size(), nullptr);
+  for (const auto& p : poses.poses) pose_of[p.frame_index] = &p;
+
+  const int w = static_cast<int>(sequence.geometry.size[0]), h = static_cast<int>(sequence.geometry.size[1]);
+  std::vector<NWireSegmentation> segs(sequence.frames.size());
+  std::atomic<std::size_t> next{0};
+  std::exception_ptr failure;
+  std::mutex failure_mutex;
+  const auto worker = [&] {
+    for (std::size_t i = next++; i < sequence.frames.size(); i = next++) {
+      try {
+        const auto pixels = toMfPixels(sequence, sequence.frames[i]);
+        segs[i] = segmentNWires({w, h, pixels}, phantom, options);
+      } catch (...) {
+        const std::lock_guard lock(failure_mutex);
+        if (!failure) failure = std::current_exception();
+      }
+    }
+  };
+  unsigned n = threads ? threads : std::max(1u, std::thread::hardware_concurrency());
+  n = std::min<unsigned>(n, static_cast<unsigned>(std::max<std::size_t>(sequence.frames.size(), 1)));
+  std::vector<std::thread> pool;
+  for (unsigned t = 1; t < n; ++t) pool.emplace_back(worker);
+  worker();
+  for (auto& t : pool) t.join();
+  if (failure) std::rethrow_exception(failure);
+
+  for (std::size_t i = 0; i < sequence.frames.size(); ++i) {
+    FrameSegmentationReport r;
+    r.frame_index = i;
+    r.status = segs[i].status;
+    r.pose_valid = pose_of[i] != nullptr;
+    r.reason = segs[i].reason;
+    if (segs[i].ok()) ++out.segmented_frames;
+    if (!r.pose_valid) {
+      ++out.frames_without_pose;
+      if (r.reason.empty()) r.reason = probe_to_reference + " is missing or invalid in this frame";
+    }
+    if (segs[i].ok() && r.pose_valid) {
+      CalibrationFrame f;
+      f.frame_index = i;
+      f.wire_points_px = segs[i].wire_points_px;
+      f.reference_T_probe = pose_of[i]->to_T_from;
+      out.frames.push_back(std::move(f));
+    }
+    out.reports.push_back(std::move(r));
+  }
+  out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return out;
+}
+
+Eigen::Isometry3d phantomToReference(const io::DeviceSetConfiguration& config) {
+  const auto t = config.findTransform("Phantom", "Reference");
+  if (!t) {
+    throw FormatError(
+        config.source +
+        ": no PhantomToReference in CoordinateDefinitions; register the phantom (register-phantom) first");
+  }
+  return orthonormalize(t->to_T_from);
+}
+
+std::vector<std::string> wireNames(const io::PhantomDefinition& phantom) {
+  std::vector<std::string> names;
+  for (const auto& p : phantom.patterns) {
+    for (const auto& w : p.wires) names.push_back(w.name);
+  }
+  return names;
+}
+
+ProbeCalibrationRun calibrateProbe(const io::DeviceSetConfiguration& config, const TrackedSequence& calibration,
+                                   const TrackedSequence& validation, const SpatialCalibrationOptions& options) {
+  const auto start = std::chrono::steady_clock::now();
+  const auto& phantom = config.requirePhantom();
+  const auto patterns = nwireGeometry(phantom);
+  const auto reference_T_phantom = phantomToReference(config);
+  const auto seg_options =
+      config.segmentation ? segmentationOptionsFrom(*config.segmentation) : NWireSegmentationOptions{};
+  ProbeCalibrationRun run;
+  run.calibration = segmentCalibrationSequence(calibration, phantom, seg_options);
+  run.validation = segmentCalibrationSequence(validation, phantom, seg_options);
+  run.result = calibrateSpatial(run.calibration.frames, patterns, reference_T_phantom, options);
+  // The calibration report again with the wire names (on the frames used).
+  std::vector<CalibrationFrame> used;
+  for (const auto& f : run.calibration.frames) {
+    if (!std::binary_search(run.result.rejected_frames.begin(), run.result.rejected_frames.end(), f.frame_index)) {
+      used.push_back(f);
+    }
+  }
+  run.result.calibration =
+      evaluateSpatialCalibration(run.result.probe_T_image, used, patterns, reference_T_phantom, wireNames(phantom));
+  if (run.validation.frames.empty()) {
+    throw ComputationError("no validation frame could be segmented with a valid probe pose (" +
+                           std::to_string(run.validation.total_frames) + " frames)");
+  }
+  run.validation_errors = evaluateSpatialCalibration(run.result.probe_T_image, run.validation.frames, patterns,
+                                                     reference_T_phantom, wireNames(phantom));
+  run.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return run;
+}
+
+}  // namespace mrsns::ultrasound
