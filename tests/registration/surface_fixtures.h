@@ -164,4 +164,20 @@ inline TriangleMesh cylinderMesh(double r, double z0, double z1, int rings, int 
   return m;
 }
 
+struct Screw {
+  Eigen::Vector3d entry;  ///< where the axis meets the bone surface (the truth)
+  Eigen::Vector3d axis;   ///< unit, outwards
+};
+
+/// A fiducial screw: shaft radius 1 mm from 8 mm inside the bone to 3 mm
+/// outside, head radius 2 mm from 3 to 5 mm outside, along `axis` through `entry`.
+inline TriangleMesh screwMesh(const Screw& s) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = Eigen::Quaterniond::FromTwoVectors(Eigen::Vector3d::UnitZ(), s.axis).toRotationMatrix();
+  T.translation() = s.entry;
+  const TriangleMesh parts[2] = {transformMesh(cylinderMesh(1.0, -8.0, 3.0, 23, 16), T),
+                                 transformMesh(cylinderMesh(2.0, 3.0, 5.0, 5, 24), T)};
+  return mergeMeshes(parts);
+}
+
 }  // namespace mrsns::test

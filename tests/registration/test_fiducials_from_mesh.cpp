@@ -13,21 +13,8 @@
 namespace mrsns::registration {
 namespace {
 
-struct Screw {
-  Eigen::Vector3d entry;  // where the axis meets the bone surface (the truth)
-  Eigen::Vector3d axis;   // outwards
-};
-
-// A screw: shaft radius 1 mm from 8 mm inside the bone to 3 mm outside, head
-// radius 2 mm from 3 to 5 mm outside, along `axis` through `entry`.
-TriangleMesh screwMesh(const Screw& s) {
-  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  T.linear() = Eigen::Quaterniond::FromTwoVectors(Eigen::Vector3d::UnitZ(), s.axis).toRotationMatrix();
-  T.translation() = s.entry;
-  const TriangleMesh parts[2] = {transformMesh(test::cylinderMesh(1.0, -8.0, 3.0, 23, 16), T),
-                                 transformMesh(test::cylinderMesh(2.0, 3.0, 5.0, 5, 24), T)};
-  return mergeMeshes(parts);
-}
+using test::Screw;
+using test::screwMesh;
 
 struct Phantom {
   TriangleMesh bone = test::vertebraLikeMesh(91, 120);

@@ -38,6 +38,9 @@ void registerInfoVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs);
 void registerConvertVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs);
 void registerCalibrateToolVerbs(CLI::App& app, GlobalOptions& options, VerbList& verbs);
 void registerRegisterPointsVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs);
+void registerRegisterSurfaceVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs);
+void registerFindFiducialsVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs);
+void registerPlanCheckVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs);
 
 /// Adds the --json flag to a subcommand (every verb has it).
 void addJsonFlag(CLI::App& sub, GlobalOptions& options);

@@ -38,6 +38,9 @@ int main(int argc, char** argv) {
   registerConvertVerb(app, options, verbs);
   registerCalibrateToolVerbs(app, options, verbs);
   registerRegisterPointsVerb(app, options, verbs);
+  registerRegisterSurfaceVerb(app, options, verbs);
+  registerFindFiducialsVerb(app, options, verbs);
+  registerPlanCheckVerb(app, options, verbs);
 
   try {
     app.parse(argc, argv);
