@@ -113,6 +113,28 @@ TEST(TransformIo, EulerAndFloatTransformsAreRead) {
   EXPECT_LT((f.matrix.topRightCorner<3, 1>() - Eigen::Vector3d(-1.5, 2.5, 3)).norm(), 1e-6);
 }
 
+TEST(TransformIo, FloatRoundedRotationsAreRigidReflectionsAreNot) {
+  const auto dir = test::scratchDirectory("tfm");
+  for (const Eigen::Matrix4d& t : rigidSamples()) {
+    // Rounded to float (~6e-8 relative), as single-precision tools write them: still rigid.
+    const Eigen::Matrix4d rounded = t.cast<float>().cast<double>();
+    writeTransformFile(rounded, dir / "f.txt");
+    const TransformFile read = readTransformFile(dir / "f.txt");
+    EXPECT_TRUE(read.rigid) << read.orthonormality_error;
+    const Eigen::Isometry3d iso = readRigidTransform(dir / "f.txt");
+    EXPECT_LT((iso.linear().transpose() * iso.linear() - Eigen::Matrix3d::Identity()).norm(), 1e-14);
+    EXPECT_LT((iso.matrix() - rounded).cwiseAbs().maxCoeff(), 1e-6);
+  }
+  Eigen::Matrix4d mirror = Eigen::Matrix4d::Identity();
+  mirror(0, 0) = -1.0;
+  writeTransformFile(mirror, dir / "mirror.tfm");
+  const TransformFile read = readTransformFile(dir / "mirror.tfm");
+  EXPECT_TRUE(read.linear);
+  EXPECT_NEAR(read.orthonormality_error, 0.0, 1e-15);
+  EXPECT_FALSE(read.rigid);  // a reflection is orthonormal but not a rotation
+  EXPECT_THROW((void)readRigidTransform(dir / "mirror.tfm"), UnsupportedError);
+}
+
 TEST(TransformIo, SlicerConventionHelpers) {
   // A Slicer node translating children by (10, 20, 30) mm in RAS (ToParent)
   // is saved as its inverse in LPS: translation (10, 20, -30).
