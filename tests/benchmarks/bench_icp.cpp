@@ -7,7 +7,7 @@
 // from the same pose, 10 deg and 10 mm away from the truth. Reported per
 // method: wall time (including each method's locator build), rotation and
 // translation error to the truth (at the points' centroid), RMS distance and
-// iterations; then the time ratio.
+// iterations; then the means over 3 noise seeds and the time ratio.
 // Run: build/tests/benchmarks/mrsns_bench_icp
 #include <benchmark/benchmark.h>
 #include <vtkCellArray.h>
@@ -22,6 +22,7 @@
 #include <chrono>
 #include <cstdio>
 #include <map>
+#include <memory>
 #include <string>
 
 #include "../registration/surface_fixtures.h"
@@ -37,18 +38,22 @@ struct Problem {
   std::vector<Eigen::Vector3d> moving;
   Eigen::Isometry3d start;
   Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
-  Problem() {
-    moving = mrsns::test::transformPoints(truth.inverse(), mrsns::test::sampleSurface(mesh, 20000, 0.2, 2026));
-    std::mt19937_64 rng(7);
+  explicit Problem(int seed) {
+    moving = mrsns::test::transformPoints(
+        truth.inverse(), mrsns::test::sampleSurface(mesh, 20000, 0.2, 2026 + static_cast<unsigned>(seed)));
+    std::mt19937_64 rng(7 + static_cast<unsigned>(seed));
     start = mrsns::test::randomPerturbation(rng, 10 * kDegree, 10.0, Eigen::Vector3d::Zero()) * truth;
     for (const auto& p : moving) centroid += p;
     centroid /= static_cast<double>(moving.size());
   }
 };
 
-const Problem& problem() {
-  static const Problem p;
-  return p;
+// One problem per noise seed (the benchmark argument); the mesh is shared.
+const Problem& problem(int seed) {
+  static std::map<int, std::unique_ptr<Problem>> cache;
+  auto& p = cache[seed];
+  if (!p) p = std::make_unique<Problem>(seed);
+  return *p;
 }
 
 struct Outcome {
@@ -58,24 +63,24 @@ struct Outcome {
   double rms_mm = 0.0;
   int iterations = 0;
 };
-std::map<std::string, Outcome>& outcomes() {
-  static std::map<std::string, Outcome> o;
+std::map<std::string, std::vector<Outcome>>& outcomes() {
+  static std::map<std::string, std::vector<Outcome>> o;
   return o;
 }
 
 void report(benchmark::State& state, const std::string& name, const Eigen::Isometry3d& estimate, double seconds,
             double rms, int iterations) {
-  const auto& p = problem();
+  const auto& p = problem(static_cast<int>(state.range(0)));
   const auto e = mrsns::test::poseError(estimate, p.truth, p.centroid);
   state.counters["rot_err_deg"] = e.rotation / kDegree;
   state.counters["trans_err_mm"] = e.translation;
   state.counters["rms_mm"] = rms;
   state.counters["iterations"] = iterations;
-  outcomes()[name] = {seconds, e.rotation / kDegree, e.translation, rms, iterations};
+  outcomes()[name].push_back({seconds, e.rotation / kDegree, e.translation, rms, iterations});
 }
 
 void runMrsns(benchmark::State& state, mrsns::registration::IcpMethod method, const std::string& name) {
-  const auto& p = problem();
+  const auto& p = problem(static_cast<int>(state.range(0)));
   for (auto _ : state) {
     const auto t0 = std::chrono::steady_clock::now();
     const mrsns::registration::IcpSurface surface(p.mesh);
@@ -96,7 +101,7 @@ void BM_IcpMrsnsPointToPoint(benchmark::State& state) {
 }
 
 void BM_IcpVtk(benchmark::State& state) {
-  const auto& p = problem();
+  const auto& p = problem(static_cast<int>(state.range(0)));
   vtkNew<vtkPoints> target_points;
   for (Eigen::Index i = 0; i < p.mesh.vertexCount(); ++i) {
     target_points->InsertNextPoint(p.mesh.vertices(i, 0), p.mesh.vertices(i, 1), p.mesh.vertices(i, 2));
@@ -154,9 +159,10 @@ void BM_IcpVtk(benchmark::State& state) {
   }
 }
 
-BENCHMARK(BM_IcpMrsnsPointToPlane)->Iterations(1)->Unit(benchmark::kMillisecond)->UseRealTime();
-BENCHMARK(BM_IcpMrsnsPointToPoint)->Iterations(1)->Unit(benchmark::kMillisecond)->UseRealTime();
-BENCHMARK(BM_IcpVtk)->Iterations(1)->Unit(benchmark::kMillisecond)->UseRealTime();
+// Argument: the noise/start seed (3 independent problems).
+BENCHMARK(BM_IcpMrsnsPointToPlane)->DenseRange(0, 2)->Iterations(1)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_IcpMrsnsPointToPoint)->DenseRange(0, 2)->Iterations(1)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_IcpVtk)->DenseRange(0, 2)->Iterations(1)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 }  // namespace
 
@@ -165,15 +171,30 @@ int main(int argc, char** argv) {
   if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
   benchmark::RunSpecifiedBenchmarks();
   benchmark::Shutdown();
-  const auto& o = outcomes();
-  std::printf("\n%-22s %10s %10s %10s %9s %6s\n", "method", "time_s", "rot_deg", "trans_mm", "rms_mm", "iters");
-  for (const auto& [name, r] : o) {
+  // Means over the seeds run.
+  std::map<std::string, Outcome> mean;
+  for (const auto& [name, runs] : outcomes()) {
+    Outcome m;
+    for (const auto& r : runs) {
+      m.seconds += r.seconds / static_cast<double>(runs.size());
+      m.rotation_deg += r.rotation_deg / static_cast<double>(runs.size());
+      m.translation_mm += r.translation_mm / static_cast<double>(runs.size());
+      m.rms_mm += r.rms_mm / static_cast<double>(runs.size());
+      m.iterations += r.iterations;
+    }
+    m.iterations /= static_cast<int>(runs.size());
+    mean[name] = m;
+  }
+  std::printf("\nmeans over the seeds run\n%-22s %10s %10s %10s %9s %6s\n", "method", "time_s", "rot_deg", "trans_mm",
+              "rms_mm", "iters");
+  for (const auto& [name, r] : mean) {
     std::printf("%-22s %10.3f %10.4f %10.4f %9.4f %6d\n", name.c_str(), r.seconds, r.rotation_deg, r.translation_mm,
                 r.rms_mm, r.iterations);
   }
-  if (o.count("vtk") != 0) {
-    for (const auto& [name, r] : o) {
-      if (name != "vtk") std::printf("speed-up of %s over VTK: %.1fx\n", name.c_str(), o.at("vtk").seconds / r.seconds);
+  if (mean.count("vtk") != 0) {
+    for (const auto& [name, r] : mean) {
+      if (name != "vtk")
+        std::printf("speed-up of %s over VTK: %.1fx\n", name.c_str(), mean.at("vtk").seconds / r.seconds);
     }
   }
   return 0;
