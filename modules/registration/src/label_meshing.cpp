@@ -3,6 +3,7 @@
 #include "mrsns/registration/label_meshing.h"
 
 #include <vtkCellArray.h>
+#include <vtkDecimatePro.h>
 #include <vtkDiscreteFlyingEdges3D.h>
 #include <vtkIdList.h>
 #include <vtkImageData.h>
@@ -203,15 +204,29 @@ LabelMeshingResult meshLabelMap(const ImageVolume& label_map, const LabelMeshOpt
     }
     const auto triangles_before = static_cast<std::size_t>(poly->GetNumberOfPolys());
     if (options.target_triangles > 0 && triangles_before > options.target_triangles) {
-      vtkNew<vtkQuadricDecimation> decimate;
-      decimate->SetInputData(poly);
-      decimate->SetTargetReduction(1.0 - static_cast<double>(options.target_triangles) /
-                                             static_cast<double>(triangles_before));
-      decimate->VolumePreservationOn();
-      decimate->Update();
-      poly = decimate->GetOutput();
+      const double reduction =
+          1.0 - static_cast<double>(options.target_triangles) / static_cast<double>(triangles_before);
+      vtkNew<vtkQuadricDecimation> quadric;
+      quadric->SetInputData(poly);
+      quadric->SetTargetReduction(reduction);
+      quadric->VolumePreservationOn();
+      quadric->Update();
+      // Quadric decimation reaches the target and keeps the shape best, but can
+      // pinch a large, thin surface into non-manifold edges; then fall back to
+      // DecimatePro, whose topology preservation keeps the surface closed.
+      if (isClosed(toTriangleMesh(quadric->GetOutput(), label_map))) {
+        poly = quadric->GetOutput();
+      } else {
+        vtkNew<vtkDecimatePro> pro;
+        pro->SetInputData(poly);
+        pro->SetTargetReduction(reduction);
+        pro->PreserveTopologyOn();
+        pro->SplittingOff();
+        pro->BoundaryVertexDeletionOff();
+        pro->Update();
+        poly = pro->GetOutput();
+      }
     }
-
     LabelMesh out;
     out.label = label;
     LabelInfo info = labelInfo(label, result.scheme);
