@@ -43,6 +43,8 @@ void registerServeVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs);
 void registerRegisterSurfaceVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs);
 void registerFindFiducialsVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs);
 void registerPlanCheckVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs);
+void registerSegmentVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs);
+void registerMakePhantomVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs);
 
 /// Adds the --json flag to a subcommand (every verb has it).
 void addJsonFlag(CLI::App& sub, GlobalOptions& options);

@@ -43,6 +43,8 @@ int main(int argc, char** argv) {
   registerRegisterSurfaceVerb(app, options, verbs);
   registerFindFiducialsVerb(app, options, verbs);
   registerPlanCheckVerb(app, options, verbs);
+  registerSegmentVerb(app, options, verbs);
+  registerMakePhantomVerb(app, options, verbs);
 
   try {
     app.parse(argc, argv);
