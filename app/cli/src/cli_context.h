@@ -39,7 +39,6 @@ void registerConvertVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs)
 void registerCalibrateToolVerbs(CLI::App& app, GlobalOptions& options, VerbList& verbs);
 void registerRegisterPointsVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs);
 void registerServeVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs);
-void registerServeVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs);
 void registerRegisterSurfaceVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs);
 void registerFindFiducialsVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs);
 void registerPlanCheckVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs);

@@ -39,7 +39,6 @@ int main(int argc, char** argv) {
   registerCalibrateToolVerbs(app, options, verbs);
   registerRegisterPointsVerb(app, options, verbs);
   registerServeVerb(app, options, verbs);
-  registerServeVerb(app, options, verbs);
   registerRegisterSurfaceVerb(app, options, verbs);
   registerFindFiducialsVerb(app, options, verbs);
   registerPlanCheckVerb(app, options, verbs);
