@@ -1,0 +1,89 @@
+#pragma once
+// Paper 001 Algorithm 1: updating a soft-tissue shape from a stream of
+// calibrated ultrasound frames. Per frame: the slice plane (image z = 0 mapped
+// into the model frame), the contours of the current shape in it, the feature
+// contours found in the image, both resampled by Eq. 8 to K points, the
+// correspondence update of V^p / V^model with the 1.2 mm threshold, and the
+// posterior (Eq. 10-11).
+
+#include <Eigen/Geometry>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "mrsns/core/plane_intersection.h"
+#include "mrsns/core/shape_model.h"
+#include "mrsns/deformation/contour_features.h"
+#include "mrsns/deformation/posterior.h"
+
+namespace mrsns::deformation {
+
+struct ShapeTrackerOptions {
+  /// K of Algorithm 1 step (c)3.
+  int contour_points = 15;
+  /// D^Thr of Algorithm 1 (a)2: a feature point closer than this to a stored
+  /// observation replaces it, otherwise it is added (mm).
+  double update_threshold_mm = 1.2;
+  /// A feature contour is paired with the model contour whose centroid is
+  /// nearest, if closer than this (mm); others are ignored.
+  double max_centroid_distance_mm = 6.0;
+  /// Cut the current posterior (true) or always the prior mean (the paper's
+  /// literal step (c)2). The posterior follows the tissue further.
+  bool cut_posterior = true;
+  PosteriorOptions posterior;
+};
+
+/// What one frame did; real-time use never throws, it reports here.
+struct FrameUpdate {
+  bool updated = false;  ///< The posterior was recomputed.
+  std::string status;    ///< "ok", or why nothing was updated.
+  int model_contours = 0;
+  int matched_contours = 0;
+  int added = 0;
+  int replaced = 0;
+  int observations = 0;  ///< Size of V^p after the frame.
+  int excluded = 0;      ///< Observations flagged implausible by the posterior.
+  double mahalanobis = 0.0;
+  bool plausible = true;
+  double elapsed_ms = 0.0;  ///< Intersection + correspondence + posterior mean.
+};
+
+class PosteriorShapeTracker {
+ public:
+  /// Throws InvalidArgumentError for an invalid model or options.
+  explicit PosteriorShapeTracker(ShapeModel model, const ShapeTrackerOptions& options = {});
+
+  /// Contours of the current shape in the image plane, in image coordinates
+  /// (mm, z = 0): the seed and shape prior of a segmenter.
+  [[nodiscard]] std::vector<Polyline3d> predictedContours(const Eigen::Isometry3d& model_T_image) const;
+
+  /// One frame: `feature_contours` are closed contours in image coordinates
+  /// (mm, z = 0) from any segmenter. An empty list leaves the shape as it is.
+  FrameUpdate update(const Eigen::Isometry3d& model_T_image, std::span<const Polyline3d> feature_contours);
+
+  /// Back to the prior, forgetting every observation.
+  void reset();
+
+  [[nodiscard]] const ShapeModel& model() const { return model_; }
+  [[nodiscard]] const Eigen::VectorXd& currentShape() const { return shape_; }
+  [[nodiscard]] TriangleMesh currentMesh() const;
+  [[nodiscard]] const PosteriorResult& posterior() const { return posterior_; }
+  /// V^p with V^model: each observation's model point and the observed point.
+  [[nodiscard]] const std::vector<ModelPointObservation>& observations() const { return observations_; }
+
+ private:
+  ShapeModel model_;
+  ShapeTrackerOptions options_;
+  TriangleMesh current_;  // topology of the model, vertices of shape_
+  Eigen::VectorXd shape_;
+  PosteriorResult posterior_;
+  std::vector<ModelPointObservation> observations_;
+};
+
+/// The cyclic shift and direction of `b` (same size as `a`) that minimise the
+/// summed squared distances to `a`: K-point contours start at arbitrary
+/// angles. Returns b reordered.
+[[nodiscard]] std::vector<Eigen::Vector3d> alignCyclic(const std::vector<Eigen::Vector3d>& a,
+                                                       const std::vector<Eigen::Vector3d>& b);
+
+}  // namespace mrsns::deformation

@@ -1,0 +1,169 @@
+#include "mrsns/deformation/shape_tracker.h"
+
+#include <chrono>
+#include <limits>
+
+#include "mrsns/core/error.h"
+#include "mrsns/core/log.h"
+#include "mrsns/deformation/shape_model_ops.h"
+
+namespace mrsns::deformation {
+
+PosteriorShapeTracker::PosteriorShapeTracker(ShapeModel model, const ShapeTrackerOptions& options)
+    : model_(std::move(model)), options_(options) {
+  validateShapeModel(model_, "PosteriorShapeTracker model");
+  if (options_.contour_points < 3) throw InvalidArgumentError("PosteriorShapeTracker: contour_points must be >= 3");
+  if (!(options_.update_threshold_mm >= 0.0)) {
+    throw InvalidArgumentError("PosteriorShapeTracker: update_threshold_mm must be >= 0");
+  }
+  reset();
+}
+
+void PosteriorShapeTracker::reset() {
+  observations_.clear();
+  posterior_ = computePosterior(model_, {}, options_.posterior);
+  shape_ = model_.mean;
+  current_ = shapeMesh(model_, shape_);
+}
+
+TriangleMesh PosteriorShapeTracker::currentMesh() const {
+  return current_;
+}
+
+std::vector<Polyline3d> PosteriorShapeTracker::predictedContours(const Eigen::Isometry3d& model_T_image) const {
+  const Eigen::Isometry3d image_T_model = model_T_image.inverse();
+  std::vector<Polyline3d> out;
+  for (const auto& c : intersectMeshWithPlane(options_.cut_posterior ? current_ : shapeMesh(model_, model_.mean),
+                                              model_T_image.translation(), model_T_image.linear().col(2))) {
+    Polyline3d p;
+    p.closed = c.closed;
+    for (const auto& q : c.points) p.points.push_back(image_T_model * q);
+    out.push_back(std::move(p));
+  }
+  return out;
+}
+
+std::vector<Eigen::Vector3d> alignCyclic(const std::vector<Eigen::Vector3d>& a, const std::vector<Eigen::Vector3d>& b) {
+  const std::size_t k = a.size();
+  double best = std::numeric_limits<double>::infinity();
+  std::vector<Eigen::Vector3d> out = b;
+  for (int dir = 0; dir < 2; ++dir) {
+    for (std::size_t shift = 0; shift < k; ++shift) {
+      double sum = 0.0;
+      for (std::size_t i = 0; i < k; ++i) {
+        const std::size_t j = dir == 0 ? (i + shift) % k : (shift + k - i) % k;
+        sum += (a[i] - b[j]).squaredNorm();
+      }
+      if (sum < best) {
+        best = sum;
+        for (std::size_t i = 0; i < k; ++i) out[i] = b[dir == 0 ? (i + shift) % k : (shift + k - i) % k];
+      }
+    }
+  }
+  return out;
+}
+
+FrameUpdate PosteriorShapeTracker::update(const Eigen::Isometry3d& model_T_image,
+                                          std::span<const Polyline3d> feature_contours) {
+  const auto t0 = std::chrono::steady_clock::now();
+  FrameUpdate r;
+  r.observations = static_cast<int>(observations_.size());
+  if (!model_T_image.matrix().allFinite()) {
+    r.status = "pose not finite";
+    return r;
+  }
+  if (feature_contours.empty()) {
+    r.status = "no feature contour";
+    return r;
+  }
+  const TriangleMesh& cut_mesh = current_;
+  const Eigen::Vector3d normal = model_T_image.linear().col(2);
+  std::vector<ModelContour> model_contours;
+  try {
+    model_contours = options_.cut_posterior
+                         ? cutModelWithPlane(cut_mesh, model_T_image.translation(), normal)
+                         : cutModelWithPlane(shapeMesh(model_, model_.mean), model_T_image.translation(), normal);
+  } catch (const Error& e) {
+    r.status = std::string("plane cut failed: ") + e.what();
+    return r;
+  }
+  r.model_contours = static_cast<int>(model_contours.size());
+  if (model_contours.empty()) {
+    r.status = "the model does not intersect the image plane";
+    return r;
+  }
+  const int k = options_.contour_points;
+  std::vector<char> model_used(model_contours.size(), 0);
+  for (const Polyline3d& fc_image : feature_contours) {
+    if (fc_image.points.size() < 3) continue;
+    Polyline3d fc;
+    fc.closed = true;
+    for (const auto& p : fc_image.points) fc.points.push_back(model_T_image * p);
+    const Eigen::Vector3d fcen = polylineCentroid(fc);
+    int best = -1;
+    double best_d = options_.max_centroid_distance_mm;
+    for (std::size_t m = 0; m < model_contours.size(); ++m) {
+      if (model_used[m] || !model_contours[m].contour.closed) continue;
+      const double dist = (polylineCentroid(model_contours[m].contour) - fcen).norm();
+      if (dist < best_d) {
+        best_d = dist;
+        best = static_cast<int>(m);
+      }
+    }
+    if (best < 0) continue;
+    model_used[static_cast<std::size_t>(best)] = 1;
+    ++r.matched_contours;
+    const ModelContour& mc = model_contours[static_cast<std::size_t>(best)];
+    // Step (c)3: both contours to K points by Eq. 8.
+    const auto mparams = nearArcLengthParameters(mc.contour, k);
+    const Polyline3d fres = resampleNearArcLength(fc, k);
+    std::vector<Eigen::Vector3d> mpts;
+    for (const auto& p : mparams) mpts.push_back(mc.modelPoint(p).point);
+    const std::vector<Eigen::Vector3d> fpts = alignCyclic(mpts, fres.points);
+    // Step (d): replace the nearest stored observation within D^Thr, else add.
+    for (int i = 0; i < k; ++i) {
+      ModelPointObservation o = mc.modelPoint(mparams[static_cast<std::size_t>(i)]);
+      o.point = fpts[static_cast<std::size_t>(i)];
+      int nearest = -1;
+      double nearest_d = options_.update_threshold_mm;
+      for (std::size_t j = 0; j < observations_.size(); ++j) {
+        const double dist = (observations_[j].point - o.point).norm();
+        if (dist < nearest_d) {
+          nearest_d = dist;
+          nearest = static_cast<int>(j);
+        }
+      }
+      if (nearest >= 0) {
+        observations_[static_cast<std::size_t>(nearest)] = o;
+        ++r.replaced;
+      } else {
+        observations_.push_back(o);
+        ++r.added;
+      }
+    }
+  }
+  r.observations = static_cast<int>(observations_.size());
+  if (r.matched_contours == 0) {
+    r.status = "no feature contour near the model's contours";
+    r.elapsed_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    return r;
+  }
+  // Step (e): the posterior.
+  try {
+    posterior_ = computePosterior(model_, observations_, options_.posterior);
+  } catch (const Error& e) {
+    r.status = std::string("posterior failed: ") + e.what();
+    return r;
+  }
+  shape_ = posterior_.mean;
+  for (Eigen::Index v = 0; v < current_.vertexCount(); ++v) current_.vertices.row(v) = shape_.segment<3>(3 * v);
+  r.updated = true;
+  r.status = "ok";
+  r.excluded = static_cast<int>(posterior_.excluded.size());
+  r.mahalanobis = posterior_.mahalanobis;
+  r.plausible = posterior_.plausible;
+  r.elapsed_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  return r;
+}
+
+}  // namespace mrsns::deformation
