@@ -44,6 +44,7 @@ int main(int argc, char** argv) {
   registerPlanCheckVerb(app, options, verbs);
   registerSegmentVerb(app, options, verbs);
   registerMakePhantomVerb(app, options, verbs);
+  registerUltrasoundVerbs(app, options, verbs);
 
   try {
     app.parse(argc, argv);

@@ -1,0 +1,153 @@
+// `mrsns-cli calibrate-us`: N-wire spatial calibration of a tracked
+// ultrasound probe (ImageToProbe) from PLUS recordings, with PLUS's error
+// figures on a calibration and a validation sequence.
+#include <array>
+#include <sstream>
+
+#include "cli_context.h"
+#include "mrsns/core/error.h"
+#include "mrsns/io/device_set.h"
+#include "mrsns/io/sequence_file.h"
+#include "mrsns/ultrasound/calibration_config.h"
+#include "mrsns/ultrasound/probe_calibration.h"
+
+namespace mrsns::cli {
+namespace {
+
+struct CalibrateUsOptions {
+  std::string config;
+  std::string calibration;
+  std::string validation;
+  std::string output_config;
+  std::string reference_results;
+  std::string objective = "distance-to-wires";
+};
+
+Json matrixJson(const Eigen::Matrix4d& m) {
+  Json out = Json::array();
+  for (int r = 0; r < 4; ++r) {
+    for (int c = 0; c < 4; ++c) out.push_back(m(r, c));
+  }
+  return out;
+}
+
+Json errorsJson(const ultrasound::CalibrationErrorReport& e) {
+  Json wires = Json::array();
+  for (const auto& w : e.wires) {
+    wires.push_back(Json{{"name", w.wire_name},
+                         {"mean_px", {w.mean_px.x(), w.mean_px.y()}},
+                         {"std_px", {w.std_px.x(), w.std_px.y()}},
+                         {"mean_distance_mm", w.mean_distance_mm},
+                         {"frames", w.count}});
+  }
+  return Json{{"frames", e.frames},
+              {"reprojection_3d_mm",
+               {{"mean", e.reprojection_3d_mean_mm},
+                {"std", e.reprojection_3d_std_mm},
+                {"kept", e.reprojection_3d_count},
+                {"all_mean", e.reprojection_3d_all_mean_mm},
+                {"all_std", e.reprojection_3d_all_std_mm}}},
+              {"wire_distance_rms_mm", e.wire_distance_rms_mm},
+              {"reprojection_2d_px", wires}};
+}
+
+Json segmentationJson(const ultrasound::SequenceSegmentation& s) {
+  Json rejected = Json::array();
+  for (const auto& r : s.reports) {
+    if (!r.reason.empty()) rejected.push_back(Json{{"frame", r.frame_index}, {"reason", r.reason}});
+  }
+  return Json{{"total", s.total_frames},   {"segmented", s.segmented_frames}, {"without_pose", s.frames_without_pose},
+              {"usable", s.frames.size()}, {"not_usable", rejected},          {"seconds", s.seconds}};
+}
+
+Report run(const CalibrateUsOptions& options) {
+  const auto config = io::readDeviceSet(options.config);
+  const auto calibration = io::readSequence(options.calibration);
+  const auto validation = io::readSequence(options.validation);
+  ultrasound::SpatialCalibrationOptions cal_options;
+  cal_options.objective = options.objective == "middle-wire" ? ultrasound::CalibrationObjective::MiddleWirePoints
+                                                             : ultrasound::CalibrationObjective::DistanceToWires;
+  const auto run = ultrasound::calibrateProbe(config, calibration, validation, cal_options);
+  const auto& r = run.result;
+
+  Report report;
+  auto& j = report.json;
+  j["verb"] = "calibrate-us";
+  j["config"] = options.config;
+  j["objective"] = options.objective;
+  j["image_to_probe"] = matrixJson(r.probe_T_image);
+  j["pixel_spacing_mm"] = {r.pixel_spacing_mm.x(), r.pixel_spacing_mm.y()};
+  j["calibration"] = errorsJson(r.calibration);
+  j["calibration"]["sequence"] = options.calibration;
+  j["calibration"]["segmentation"] = segmentationJson(run.calibration);
+  j["calibration"]["frames_used"] = r.frames_used;
+  j["calibration"]["frames_rejected"] = r.rejected_frames;
+  j["validation"] = errorsJson(run.validation_errors);
+  j["validation"]["sequence"] = options.validation;
+  j["validation"]["segmentation"] = segmentationJson(run.validation);
+  j["seconds"] = run.seconds;
+
+  std::ostringstream text;
+  text << "ImageToProbe (" << options.objective << "), pixel spacing " << r.pixel_spacing_mm.x() << " x "
+       << r.pixel_spacing_mm.y() << " mm:\n"
+       << r.probe_T_image << "\n"
+       << "  calibration: " << r.frames_used << " frames used (" << r.rejected_frames.size() << " outliers, "
+       << run.calibration.total_frames - run.calibration.frames.size() << " not usable), 3D reprojection "
+       << r.calibration.reprojection_3d_mean_mm << " +/- " << r.calibration.reprojection_3d_std_mm << " mm\n"
+       << "  validation: " << run.validation.frames.size() << "/" << run.validation.total_frames
+       << " frames, 3D reprojection " << run.validation_errors.reprojection_3d_mean_mm << " +/- "
+       << run.validation_errors.reprojection_3d_std_mm << " mm\n";
+  if (!options.reference_results.empty()) {
+    const Eigen::Matrix4d ref = ultrasound::readPlusImageToProbe(options.reference_results);
+    const double w = static_cast<double>(calibration.geometry.size[0] - 1);
+    const double h = static_cast<double>(calibration.geometry.size[1] - 1);
+    Json corners = Json::array();
+    double worst = 0.0;
+    for (const auto& [x, y] : std::array<std::pair<double, double>, 4>{{{0, 0}, {w, 0}, {0, h}, {w, h}}}) {
+      const Eigen::Vector4d p(x, y, 0.0, 1.0);
+      const double d = (r.probe_T_image * p - ref * p).head<3>().norm();
+      corners.push_back(d);
+      worst = std::max(worst, d);
+    }
+    j["reference"] = Json{{"results", options.reference_results},
+                          {"image_to_probe", matrixJson(ref)},
+                          {"corner_distances_mm", corners},
+                          {"max_corner_distance_mm", worst}};
+    text << "  image corners vs the reference ImageToProbe: up to " << worst << " mm\n";
+  }
+  if (!options.output_config.empty()) {
+    ultrasound::writeCoordinateDefinition(options.config, options.output_config, "Image", "Probe", r.probe_T_image,
+                                          run.validation_errors.reprojection_3d_mean_mm);
+    j["output_config"] = options.output_config;
+    text << "  written: " << options.output_config << " (CoordinateDefinitions/Transform ImageToProbe)\n";
+  }
+  report.text = text.str();
+  return report;
+}
+
+}  // namespace
+
+void registerCalibrateUsVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs) {
+  auto opts = std::make_shared<CalibrateUsOptions>();
+  auto* sub = app.add_subcommand(
+      "calibrate-us",
+      "N-wire spatial calibration of a tracked ultrasound probe (ImageToProbe with pixel spacing) from PLUS "
+      "recordings; 3D/2D reprojection errors as PLUS's fCal reports them");
+  sub->add_option("--config", opts->config, "PLUS device-set configuration (phantom, PhantomToReference, segmentation)")
+      ->required();
+  sub->add_option("--calibration", opts->calibration, "tracked B-mode sequence of the phantom for calibration")
+      ->required();
+  sub->add_option("--validation", opts->validation, "a second such sequence for validation")->required();
+  sub->add_option("--output-config", opts->output_config,
+                  "write the configuration with the ImageToProbe in CoordinateDefinitions (PLUS-compatible)");
+  sub->add_option("--reference-results", opts->reference_results,
+                  "a PLUS ProbeCalibration results file: distances of the mapped image corners to its ImageToProbe");
+  sub->add_option("--objective", opts->objective,
+                  "least-squares criterion: distance of every dot to its wire, or PLUS's middle-wire points")
+      ->check(CLI::IsMember({"distance-to-wires", "middle-wire"}))
+      ->capture_default_str();
+  addJsonFlag(*sub, options);
+  verbs.emplace_back(sub, [opts] { return run(*opts); });
+}
+
+}  // namespace mrsns::cli

@@ -1,0 +1,13 @@
+// The ultrasound verbs (calibrate-us, calibrate-temporal, register-phantom),
+// registered together so main() needs one line.
+#include "cli_context.h"
+
+namespace mrsns::cli {
+
+void registerCalibrateUsVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs);
+
+void registerUltrasoundVerbs(CLI::App& app, GlobalOptions& options, VerbList& verbs) {
+  registerCalibrateUsVerb(app, options, verbs);
+}
+
+}  // namespace mrsns::cli
