@@ -8,6 +8,7 @@
 #include <string>
 
 #include "mrsns/core/error.h"
+#include "mrsns/core/format.h"
 #include "mrsns/core/rigid.h"
 #include "mrsns/core/rotation_average.h"
 
@@ -80,8 +81,8 @@ PivotResult calibratePivot(std::span<const Eigen::Isometry3d> tracker_T_marker, 
   std::vector<bool> use(n, true);
   const double range_all = rotationRange(tracker_T_marker, use);
   if (range_all < options.min_rotation_range) {
-    throw ComputationError("pivot calibration: the tool rotated only " + std::to_string(range_all * kRadToDeg) +
-                           " deg (at least " + std::to_string(options.min_rotation_range * kRadToDeg) +
+    throw ComputationError("pivot calibration: the tool rotated only " + formatFixed(range_all * kRadToDeg, 1) +
+                           " deg (at least " + formatFixed(options.min_rotation_range * kRadToDeg, 1) +
                            " deg needed): pivot the tool further, in two directions, keeping the tip in the divot");
   }
 
@@ -119,7 +120,7 @@ PivotResult calibratePivot(std::span<const Eigen::Isometry3d> tracker_T_marker, 
     if (best_count < options.min_poses) {
       throw ComputationError("robust pivot calibration: no consistent pivot found (best " +
                              std::to_string(std::max(best_count, 0)) + " of " + std::to_string(n) +
-                             " poses within " + std::to_string(options.inlier_threshold_mm) +
+                             " poses within " + formatFixed(options.inlier_threshold_mm, 2) +
                              " mm): check that the tip stayed in the divot, or raise the inlier threshold");
     }
     use = best;
@@ -142,12 +143,13 @@ PivotResult calibratePivot(std::span<const Eigen::Isometry3d> tracker_T_marker, 
   result.rotation_range = rotationRange(tracker_T_marker, use);
   if (!std::isfinite(fit.condition_number) || fit.condition_number > options.max_condition_number) {
     throw ComputationError(
-        "pivot calibration is ill-conditioned (condition number " + std::to_string(fit.condition_number) +
-        "): the tool seems to have rotated about one axis only; pivot it in two perpendicular directions");
+        "pivot calibration is ill-conditioned (condition number " + formatGeneral(fit.condition_number, 3) +
+        "): the poses do not determine the tip (too little rotation, or rotation about one axis only); pivot "
+        "the tool by 20 deg or more in two perpendicular directions");
   }
   if (result.rotation_range < options.min_rotation_range) {
     throw ComputationError("pivot calibration: the consistent poses cover only " +
-                           std::to_string(result.rotation_range * kRadToDeg) +
+                           formatFixed(result.rotation_range * kRadToDeg, 1) +
                            " deg of rotation: pivot the tool further");
   }
   result.residuals_mm = residuals(tracker_T_marker, fit.tip_marker, fit.pivot_tracker);

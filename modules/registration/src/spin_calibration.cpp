@@ -6,6 +6,7 @@
 #include <string>
 
 #include "mrsns/core/error.h"
+#include "mrsns/core/format.h"
 #include "mrsns/core/rigid.h"
 #include "mrsns/core/rotation_average.h"
 
@@ -37,8 +38,8 @@ SpinResult calibrateSpin(std::span<const Eigen::Isometry3d> tracker_T_marker, co
     result.spin_angle = std::max(result.spin_angle, rotationAngleBetween(rotations[0], rotations[i]));
   }
   if (result.spin_angle < options.min_spin_angle) {
-    throw ComputationError("spin calibration: the tool turned only " + std::to_string(result.spin_angle * kRadToDeg) +
-                           " deg (at least " + std::to_string(options.min_spin_angle * kRadToDeg) +
+    throw ComputationError("spin calibration: the tool turned only " + formatFixed(result.spin_angle * kRadToDeg, 1) +
+                           " deg (at least " + formatFixed(options.min_spin_angle * kRadToDeg, 1) +
                            " deg needed): spin it further about its shaft");
   }
   Eigen::JacobiSVD<Eigen::MatrixXd> svd(a, Eigen::ComputeThinV);
@@ -50,7 +51,7 @@ SpinResult calibrateSpin(std::span<const Eigen::Isometry3d> tracker_T_marker, co
   constexpr double kMinDistinctness = 5.0;
   if (result.axis_distinctness < kMinDistinctness) {
     throw ComputationError("spin calibration: the motion is not a rotation about one axis (axis distinctness " +
-                           std::to_string(result.axis_distinctness) +
+                           formatGeneral(result.axis_distinctness, 3) +
                            "): keep the tip in the divot and turn the tool about its shaft only");
   }
   const Eigen::Vector3d reference = tip_marker != nullptr ? *tip_marker : Eigen::Vector3d::UnitZ();

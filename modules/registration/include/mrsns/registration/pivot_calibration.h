@@ -19,9 +19,11 @@ struct PivotOptions {
   /// Smallest rotation range accepted: the largest angle between any pose and
   /// the mean orientation, in radians (PLUS and SlicerIGT warn below ~20 deg).
   double min_rotation_range = 10.0 * 3.14159265358979323846 / 180.0;
-  /// Refuse when the 6x6 normal system's condition number exceeds this
-  /// (motion about one axis only leaves the tip unobservable along it).
-  double max_condition_number = 1e4;
+  /// Refuse when the least-squares system's condition number exceeds this.
+  /// It grows as ~2 / (rotation range in rad): ~10 for a 20 deg pivot, ~1000
+  /// for a tool lying still with tracker jitter, unbounded for rotation about
+  /// one axis only (the tip is then unobservable along that axis).
+  double max_condition_number = 200.0;
   /// Robust variant: RANSAC over minimal subsets, then reweighted refinement.
   bool robust = false;
   /// Inlier threshold on the per-pose residual (mm); ~3-4x the tracker's
