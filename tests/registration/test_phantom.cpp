@@ -11,6 +11,7 @@
 
 #include "mrsns/core/error.h"
 #include "mrsns/registration/ct_bone_segmentation.h"
+#include "mrsns/registration/label_meshing.h"
 #include "mrsns/registration/label_names.h"
 #include "mrsns/registration/phantom_cervical.h"
 
@@ -145,6 +146,7 @@ TEST(Phantom, PedicleScrewPathsRunThroughThePediclesIntoTheBody) {
     EXPECT_GT(entry_local.y(), 14.0) << "entry on the posterior lateral mass";
     EXPECT_EQ(entry_local.x() > 0.0, path.name.find("left") != std::string::npos);
     EXPECT_LT(std::abs(target_local.y()), 8.0) << "target in the body";
+    EXPECT_NEAR(std::abs(target_local.x()), 3.0, 1e-6) << "left and right tips stay apart";
     // Medial convergence ~45 deg (Karaikovic et al. 1997: 39-49 deg at C3-C7).
     const Eigen::Vector3d d = (target_local - entry_local).normalized();
     EXPECT_NEAR(std::atan2(std::abs(d.x()), -d.y()) * 180.0 / std::numbers::pi, 45.0, 6.0);
@@ -201,6 +203,33 @@ TEST(Phantom, BoneSegmentationRecoversTheVertebrae) {
   ASSERT_EQ(per_vertebra.size(), 5U);
   for (const auto& [label, counts] : per_vertebra) {
     EXPECT_GT(static_cast<double>(counts.first) / static_cast<double>(counts.second), 0.9) << "C" << label;
+  }
+}
+
+// The vertebra meshes (what fiducial finding and ICP see) lie on the analytic
+// bone surface: voxelisation puts the boundary within h / 2 of it along an
+// axis (h sqrt(3) / 2 at a corner) and smoothing moves it towards the true
+// surface; bound the largest vertex distance by h and the RMS by h / 4.
+TEST(Phantom, VertebraMeshesLieOnTheAnalyticBoneSurface) {
+  const auto& p = defaultPhantom();
+  LabelMeshOptions options;
+  options.labels = {5, 6};
+  const auto meshes = meshLabelMap(p.bone_labels, options);
+  ASSERT_EQ(meshes.meshes.size(), 2U);
+  const double h = p.ct.spacing.x();
+  for (const auto& m : meshes.meshes) {
+    SCOPED_TRACE(m.name);
+    EXPECT_TRUE(m.closed);
+    double sum2 = 0.0, worst = 0.0;
+    for (Eigen::Index v = 0; v < m.mesh.vertexCount(); ++v) {
+      const double d = std::abs(phantomBoneDistance(p, m.mesh.vertices.row(v).transpose()));
+      sum2 += d * d;
+      worst = std::max(worst, d);
+    }
+    const double rms = std::sqrt(sum2 / static_cast<double>(m.mesh.vertexCount()));
+    std::cout << m.name << ": mesh to analytic surface RMS " << rms << " mm, max " << worst << " mm\n";
+    EXPECT_LT(rms, h / 4.0);
+    EXPECT_LT(worst, h);
   }
 }
 

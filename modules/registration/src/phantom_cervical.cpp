@@ -181,12 +181,13 @@ void planPedicleScrews(const std::vector<PlacedVertebra>& vertebrae, CervicalPha
       path.name = path.vertebra + (side > 0 ? " left" : " right");
       path.diameter_mm = 3.5;
       path.entry = exitPoint(distance, b, -u);
-      // The tip stops at the mid-sagittal plane or 3 mm short of the body's
-      // far cortex, whichever comes first (20-30 mm screws, as in the clinic).
+      // The tip stops 3 mm short of the mid-sagittal plane (so the left and
+      // right screws, 3.5 mm thick, stay 2.5 mm apart) or 3 mm short of the
+      // body's far cortex, whichever comes first: 20-30 mm screws, as in the clinic.
       const Eigen::Vector3d cortex = exitPoint(distance, a, u) - 3.0 * u;
-      const Eigen::Vector3d midline_normal = v.info.rotation.col(0);
-      const double to_midline = -(a - v.info.body_center).dot(midline_normal) / u.dot(midline_normal);
-      const Eigen::Vector3d midline = a + to_midline * u;
+      const Eigen::Vector3d ex = v.info.rotation.col(0);
+      const Eigen::Vector3d stop_plane = v.info.body_center + side * 3.0 * ex;
+      const Eigen::Vector3d midline = a + ((stop_plane - a).dot(ex) / u.dot(ex)) * u;
       path.target = (midline - a).dot(u) < (cortex - a).dot(u) ? midline : cortex;
       phantom.screw_paths.push_back(path);
     }
