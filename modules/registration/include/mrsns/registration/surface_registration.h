@@ -35,8 +35,9 @@ struct IcpOptions {
   int max_iterations = 100;
   /// Correspondences farther than this (mm) are ignored; infinite keeps all.
   double max_correspondence_distance_mm = std::numeric_limits<double>::infinity();
-  /// Fraction of the (remaining) correspondences kept, the closest first;
-  /// 1 keeps all. Use about 1 - expected outlier fraction.
+  /// Fraction of all moving points kept as correspondences, the closest
+  /// first (points beyond the distance count as dropped); 1 keeps all. Use
+  /// about 1 - expected outlier fraction.
   double trim_fraction = 1.0;
   RobustLoss loss = RobustLoss::None;
   /// Tuning constant of the loss in units of the robust scale; <= 0 picks
@@ -61,7 +62,8 @@ struct IcpResult {
   Eigen::Isometry3d fixed_T_moving = Eigen::Isometry3d::Identity();
   /// RMS distance of the inliers to the surface at the result (mm).
   double rms_mm = 0.0;
-  /// RMS distance of all points to the surface at the start (mm).
+  /// Weighted RMS distance of the first iteration's correspondences (after
+  /// rejection, trimming and weighting) at the start (mm).
   double initial_rms_mm = 0.0;
   /// inliers.size() / number of points.
   double inlier_fraction = 0.0;
