@@ -1,11 +1,16 @@
 // CLI: calibrate-us on the PLUS fCal recordings, and its error paths.
 #include <gtest/gtest.h>
 
+#include <Eigen/Core>
+#include <cmath>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <numbers>
+#include <random>
 #include <sstream>
 
 #include "cli_runner.h"
+#include "mrsns/io/sequence_file.h"
 #include "test_data.h"
 
 namespace mrsns::test {
@@ -77,6 +82,78 @@ TEST(CliUltrasound, CalibrateUsUsageErrors) {
   const auto missing = runCli({"calibrate-us", "--config", "/nonexistent/cfg.xml", "--calibration", "a.mha",
                                "--validation", "b.mha", "--json"});
   EXPECT_EQ(missing.exit_code, 1);
+}
+
+}  // namespace
+}  // namespace mrsns::test
+
+namespace mrsns::test {
+namespace {
+
+// A combined PLUS-like recording: B-mode frames of a flat target moving up
+// and down, and a ProbeToTracker transform per frame that reports the
+// motion `lag_s` late (the tracker lags).
+TrackedSequence temporalRecording(double lag_s, bool with_pixels, double fps) {
+  std::mt19937 rng(7);
+  std::normal_distribution<double> noise(0.0, 1.0);
+  const auto m = [](double t) {
+    return 8.0 * (std::sin(2.0 * std::numbers::pi * 0.8 * t) + 0.4 * std::sin(2.0 * std::numbers::pi * 0.37 * t + 1.0));
+  };
+  TrackedSequence s;
+  const int w = 64, h = 128;
+  s.geometry.size = {w, h, 1};
+  for (int i = 0; i < static_cast<int>(12 * fps); ++i) {
+    TrackedFrame f;
+    f.timestamp = 10.0 + i / fps;
+    Eigen::Matrix4d pose = Eigen::Matrix4d::Identity();
+    pose(2, 3) = m(f.timestamp - lag_s);
+    f.transforms["ProbeToTracker"] = FrameTransform{pose, TransformStatus::Ok};
+    if (with_pixels) {
+      const double line_y = 64.0 + 2.5 * m(f.timestamp);
+      f.pixels.resize(static_cast<std::size_t>(w * h));
+      for (int y = 0; y < h; ++y) {
+        for (int x = 0; x < w; ++x) {
+          const double v = 20.0 + 200.0 * std::exp(-0.5 * std::pow((y - line_y) / 2.0, 2)) + 6.0 * std::abs(noise(rng));
+          f.pixels[static_cast<std::size_t>(y * w + x)] = static_cast<std::uint8_t>(std::min(v, 255.0));
+        }
+      }
+    }
+    s.frames.push_back(std::move(f));
+  }
+  return s;
+}
+
+TEST(CliUltrasound, CalibrateTemporalCombinedAndSeparateFiles) {
+  const auto dir = scratchDirectory("calibrate-temporal");
+  io::writeSequence(dir / "combined.igs.mha", temporalRecording(0.064, true, 25.0));
+  auto r = runCli({"calibrate-temporal", "--sequence", (dir / "combined.igs.mha").string(), "--json"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  auto j = nlohmann::json::parse(r.out);
+  EXPECT_NEAR(j["tracker_lag_ms"].get<double>(), 64.0, 3.0);
+  EXPECT_EQ(j["transform"], "ProbeToTracker");
+
+  // Tracker buffer at 60 Hz without pixels, video buffer with them.
+  auto tracker = temporalRecording(0.064, false, 60.0);
+  tracker.geometry.size = {1, 1, 1};
+  for (auto& f : tracker.frames) f.pixels.assign(1, 0);
+  io::writeSequence(dir / "tracker.igs.mha", tracker);
+  io::writeSequence(dir / "video.igs.mha", temporalRecording(0.0, true, 25.0));
+  r = runCli({"calibrate-temporal", "--tracker", (dir / "tracker.igs.mha").string(), "--video",
+              (dir / "video.igs.mha").string(), "--json"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  j = nlohmann::json::parse(r.out);
+  EXPECT_NEAR(j["tracker_lag_ms"].get<double>(), 64.0, 2.0);
+  EXPECT_GT(j["correlation"].get<double>(), 0.9);
+}
+
+TEST(CliUltrasound, CalibrateTemporalRefusesNoLineAndBadArguments) {
+  MRSNS_REQUIRE_DATA(validation, "plus/fCal_Test_Validation_3NWires.igs.mha");
+  // The N-wire recording has no flat target moving up and down.
+  const auto r = runCli({"calibrate-temporal", "--sequence", validation.string(), "--json"});
+  EXPECT_EQ(r.exit_code, 1);
+  const auto both = runCli({"calibrate-temporal", "--sequence", validation.string(), "--tracker", "a.mha", "--json"});
+  EXPECT_EQ(both.exit_code, 1);
+  EXPECT_NE((both.out + both.err).find("either"), std::string::npos);
 }
 
 }  // namespace

@@ -1,0 +1,220 @@
+#include "mrsns/ultrasound/temporal_calibration.h"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "mrsns/core/error.h"
+
+namespace mrsns::ultrasound {
+namespace {
+
+double rmsAboutMean(const std::vector<double>& v) {
+  if (v.empty()) return 0.0;
+  const double mean = std::accumulate(v.begin(), v.end(), 0.0) / static_cast<double>(v.size());
+  double s = 0.0;
+  for (const double x : v) s += (x - mean) * (x - mean);
+  return std::sqrt(s / static_cast<double>(v.size()));
+}
+
+// Linear interpolation of `s` at time t; false outside its span.
+bool sample(const TimedSignal& s, double t, double& out) {
+  const auto& ts = s.time_s;
+  if (t < ts.front() || t > ts.back()) return false;
+  const auto it = std::upper_bound(ts.begin(), ts.end(), t);
+  if (it == ts.end()) {
+    out = s.value.back();
+    return true;
+  }
+  const auto i = static_cast<std::size_t>(it - ts.begin());
+  const double t0 = ts[i - 1], t1 = ts[i];
+  const double a = t1 > t0 ? (t - t0) / (t1 - t0) : 0.0;
+  out = (1.0 - a) * s.value[i - 1] + a * s.value[i];
+  return true;
+}
+
+// NCC between video samples and the tracker signal shifted by `lag`
+// (tracker read at video time + lag); nan when they overlap too little.
+double ncc(const TimedSignal& tracker, const TimedSignal& video, double lag, std::size_t min_samples) {
+  double sa = 0, sb = 0, saa = 0, sbb = 0, sab = 0;
+  std::size_t n = 0;
+  for (std::size_t i = 0; i < video.time_s.size(); ++i) {
+    double a = 0.0;
+    if (!sample(tracker, video.time_s[i] + lag, a)) continue;
+    const double b = video.value[i];
+    sa += a;
+    sb += b;
+    saa += a * a;
+    sbb += b * b;
+    sab += a * b;
+    ++n;
+  }
+  if (n < min_samples) return std::nan("");
+  const double dn = static_cast<double>(n);
+  const double cov = sab - sa * sb / dn, va = saa - sa * sa / dn, vb = sbb - sb * sb / dn;
+  if (va <= 0.0 || vb <= 0.0) return std::nan("");
+  return cov / std::sqrt(va * vb);
+}
+
+void checkSignal(const TimedSignal& s, const char* name) {
+  if (s.time_s.size() != s.value.size()) {
+    throw InvalidArgumentError(std::string("temporal calibration: the ") + name + " signal has " +
+                               std::to_string(s.time_s.size()) + " times but " + std::to_string(s.value.size()) +
+                               " values");
+  }
+  for (std::size_t i = 1; i < s.time_s.size(); ++i) {
+    if (!(s.time_s[i] > s.time_s[i - 1])) {
+      throw InvalidArgumentError(std::string("temporal calibration: the ") + name +
+                                 " timestamps are not strictly increasing at sample " + std::to_string(i));
+    }
+  }
+}
+
+}  // namespace
+
+TimedSignal trackerPositionSignal(const std::vector<FramePose>& poses) {
+  TimedSignal s;
+  if (poses.empty()) return s;
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (const auto& p : poses) mean += p.to_T_from.translation();
+  mean /= static_cast<double>(poses.size());
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  for (const auto& p : poses) {
+    const Eigen::Vector3d d = p.to_T_from.translation() - mean;
+    cov += d * d.transpose();
+  }
+  const Eigen::Vector3d axis = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(cov).eigenvectors().col(2);
+  std::vector<std::pair<double, double>> samples;
+  for (const auto& p : poses) samples.emplace_back(p.timestamp, axis.dot(p.to_T_from.translation() - mean));
+  std::sort(samples.begin(), samples.end());
+  for (const auto& [t, v] : samples) {
+    if (!s.time_s.empty() && t <= s.time_s.back()) continue;  // repeated timestamps: keep the first
+    s.time_s.push_back(t);
+    s.value.push_back(v);
+  }
+  return s;
+}
+
+TimedSignal videoLineSignal(const TrackedSequence& sequence) {
+  const auto& g = sequence.geometry;
+  if (sequence.pixel_format.scalar != PixelType::UInt8 || sequence.pixel_format.components != 1 || g.size[2] != 1) {
+    throw UnsupportedError("line detection needs 8-bit single-component 2D frames");
+  }
+  const int w = static_cast<int>(g.size[0]), h = static_cast<int>(g.size[1]);
+  TimedSignal s;
+  std::vector<std::pair<double, double>> samples;
+  std::vector<double> peaks;
+  for (const auto& frame : sequence.frames) {
+    if (frame.pixels.size() != sequence.frameBytes()) {
+      throw InvalidArgumentError("line detection: a frame has no pixels (read the sequence with its pixels)");
+    }
+    const cv::Mat img(h, w, CV_8U, const_cast<std::uint8_t*>(frame.pixels.data()));
+    cv::Mat smooth;
+    // Vertical smoothing only: the line is horizontal, speckle is not.
+    cv::GaussianBlur(img, smooth, cv::Size(1, 7), 0.0, 2.0);
+    peaks.clear();
+    const int step = std::max(1, w / 64);
+    for (int x = 0; x < w; x += step) {
+      int best = -1, best_y = 0;
+      for (int y = 0; y < h; ++y) {
+        const int v = smooth.at<std::uint8_t>(y, x);
+        if (v > best) {
+          best = v;
+          best_y = y;
+        }
+      }
+      if (best < 32) continue;  // no echo in this column
+      // Sub-pixel peak by a parabola through the neighbours.
+      double y = best_y;
+      if (best_y > 0 && best_y + 1 < h) {
+        const double a = smooth.at<std::uint8_t>(best_y - 1, x), b = best, c = smooth.at<std::uint8_t>(best_y + 1, x);
+        const double den = a - 2.0 * b + c;
+        if (den < 0.0) y += 0.5 * (a - c) / den;
+      }
+      peaks.push_back(y);
+    }
+    if (peaks.size() < 4) continue;
+    std::nth_element(peaks.begin(), peaks.begin() + static_cast<std::ptrdiff_t>(peaks.size() / 2), peaks.end());
+    samples.emplace_back(frame.timestamp, peaks[peaks.size() / 2]);
+  }
+  std::sort(samples.begin(), samples.end());
+  for (const auto& [t, v] : samples) {
+    if (!s.time_s.empty() && t <= s.time_s.back()) continue;
+    s.time_s.push_back(t);
+    s.value.push_back(v);
+  }
+  return s;
+}
+
+TemporalCalibrationResult calibrateTemporal(const TimedSignal& tracker, const TimedSignal& video,
+                                            const TemporalCalibrationOptions& options) {
+  checkSignal(tracker, "tracker");
+  checkSignal(video, "video");
+  TemporalCalibrationResult r;
+  r.tracker_samples = tracker.time_s.size();
+  r.video_samples = video.time_s.size();
+  if (r.tracker_samples < options.min_samples || r.video_samples < options.min_samples) {
+    throw ComputationError("temporal calibration: " + std::to_string(r.tracker_samples) + " tracker and " +
+                           std::to_string(r.video_samples) + " video samples, at least " +
+                           std::to_string(options.min_samples) + " of each needed");
+  }
+  r.tracker_motion_rms = rmsAboutMean(tracker.value);
+  r.video_motion_rms = rmsAboutMean(video.value);
+  if (r.tracker_motion_rms < options.min_tracker_motion_mm || r.video_motion_rms < options.min_video_motion_px) {
+    throw ComputationError("temporal calibration: too little motion (tracker " + std::to_string(r.tracker_motion_rms) +
+                           " mm RMS, need " + std::to_string(options.min_tracker_motion_mm) + "; image line " +
+                           std::to_string(r.video_motion_rms) + " px RMS, need " +
+                           std::to_string(options.min_video_motion_px) +
+                           "); move the probe up and down over the flat target for several cycles");
+  }
+  const int steps = static_cast<int>(std::ceil(options.max_lag_s / options.lag_step_s));
+  for (int i = -steps; i <= steps; ++i) {
+    const double lag = i * options.lag_step_s;
+    r.lags_s.push_back(lag);
+    r.correlations.push_back(ncc(tracker, video, lag, options.min_samples));
+  }
+  // The sign of the coupling between the two signals is unknown (probe axis
+  // direction, image orientation): the peak of |NCC| is taken, and among
+  // near-equal peaks (a periodic motion repeats every half period with the
+  // sign flipped) the one nearest zero lag.
+  double best_abs = 0.0;
+  for (const double c : r.correlations) {
+    if (!std::isnan(c)) best_abs = std::max(best_abs, std::abs(c));
+  }
+  if (best_abs <= 0.0)
+    throw ComputationError("temporal calibration: the tracker and video signals do not overlap in time");
+  std::size_t best = 0;
+  double best_lag = 1e300;
+  for (std::size_t i = 0; i < r.correlations.size(); ++i) {
+    const double c = r.correlations[i];
+    if (std::isnan(c) || std::abs(c) < 0.97 * best_abs) continue;
+    // Local maximum of |NCC| only.
+    const bool left = i == 0 || std::isnan(r.correlations[i - 1]) || std::abs(r.correlations[i - 1]) <= std::abs(c);
+    const bool right = i + 1 == r.correlations.size() || std::isnan(r.correlations[i + 1]) ||
+                       std::abs(r.correlations[i + 1]) <= std::abs(c);
+    if (left && right && std::abs(r.lags_s[i]) < std::abs(best_lag)) {
+      best_lag = r.lags_s[i];
+      best = i;
+    }
+  }
+  r.polarity = r.correlations[best] >= 0.0 ? 1 : -1;
+  r.correlation = std::abs(r.correlations[best]);
+  r.tracker_lag_s = r.lags_s[best];
+  if (best > 0 && best + 1 < r.correlations.size() && !std::isnan(r.correlations[best - 1]) &&
+      !std::isnan(r.correlations[best + 1])) {
+    const double a = std::abs(r.correlations[best - 1]), b = r.correlation, c = std::abs(r.correlations[best + 1]);
+    const double den = a - 2.0 * b + c;
+    if (den < 0.0) r.tracker_lag_s += 0.5 * (a - c) / den * options.lag_step_s;
+  }
+  if (r.correlation < options.min_correlation) {
+    throw ComputationError("temporal calibration: the best correlation is " + std::to_string(r.correlation) +
+                           " (need " + std::to_string(options.min_correlation) +
+                           "); the image line was not followed reliably or the motion is not shared");
+  }
+  return r;
+}
+
+}  // namespace mrsns::ultrasound
