@@ -44,6 +44,8 @@ void registerFindFiducialsVerb(CLI::App& app, GlobalOptions& options, VerbList& 
 void registerPlanCheckVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs);
 void registerSegmentVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs);
 void registerMakePhantomVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs);
+void registerSsmVerbs(CLI::App& app, GlobalOptions& options, VerbList& verbs);
+void registerDeformTrialVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs);
 void registerUltrasoundVerbs(CLI::App& app, GlobalOptions& options, VerbList& verbs);
 
 /// Adds the --json flag to a subcommand (every verb has it).

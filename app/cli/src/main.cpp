@@ -44,6 +44,8 @@ int main(int argc, char** argv) {
   registerPlanCheckVerb(app, options, verbs);
   registerSegmentVerb(app, options, verbs);
   registerMakePhantomVerb(app, options, verbs);
+  registerSsmVerbs(app, options, verbs);
+  registerDeformTrialVerb(app, options, verbs);
   registerUltrasoundVerbs(app, options, verbs);
 
   try {
