@@ -43,8 +43,10 @@ std::vector<NWirePattern> nwireGeometry(const io::PhantomDefinition& phantom) {
 
 Eigen::Vector3d middleWirePoint(const NWirePattern& pattern, const Eigen::Vector2d& p1, const Eigen::Vector2d& p2,
                                 const Eigen::Vector2d& p3) {
-  const double total = (p3 - p1).norm();
-  const double alpha = total > 0.0 ? (p2 - p1).norm() / total : 0.5;
+  // Signed ratio: the projection of p2 on the line p1 p3 (it also absorbs
+  // the dot's small offset across the line).
+  const double total_sq = (p3 - p1).squaredNorm();
+  const double alpha = total_sq > 0.0 ? (p2 - p1).dot(p3 - p1) / total_sq : 0.5;
   // Across-wire axis of the N's plane: from outer wire 1 to outer wire 3,
   // perpendicular to them. Every point of the image line between the outer
   // dots has across-coordinate alpha * outer distance.
