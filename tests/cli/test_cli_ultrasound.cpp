@@ -10,6 +10,8 @@
 #include <sstream>
 
 #include "cli_runner.h"
+#include "mrsns/io/device_set.h"
+#include "mrsns/io/landmarks_io.h"
 #include "mrsns/io/sequence_file.h"
 #include "test_data.h"
 
@@ -154,6 +156,43 @@ TEST(CliUltrasound, CalibrateTemporalRefusesNoLineAndBadArguments) {
   const auto both = runCli({"calibrate-temporal", "--sequence", validation.string(), "--tracker", "a.mha", "--json"});
   EXPECT_EQ(both.exit_code, 1);
   EXPECT_NE((both.out + both.err).find("either"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace mrsns::test
+
+namespace mrsns::test {
+namespace {
+
+TEST(CliUltrasound, RegisterPhantomFromStylusPoints) {
+  MRSNS_REQUIRE_DATA(config, "plus/PlusDeviceSet_fCal_Sim_SpatialCalibration_1.2.xml");
+  const auto cfg = io::readDeviceSet(config);
+  Eigen::Matrix4d truth = cfg.findTransform("Phantom", "Reference")->to_T_from;
+  LandmarkSet tips;
+  for (const auto& l : cfg.requirePhantom().landmarks) {
+    Landmark landmark;
+    landmark.label = l.name;
+    landmark.position = (truth * l.position_phantom.homogeneous()).head<3>();
+    tips.points.push_back(landmark);
+  }
+  const auto dir = scratchDirectory("register-phantom");
+  io::writeLandmarks(tips, dir / "tips.mrk.json");
+  const auto out = dir / "registered.xml";
+  const auto r = runCli({"register-phantom", "--config", config.string(), "--points", (dir / "tips.mrk.json").string(),
+                         "--output-config", out.string(), "--json"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  // PLUS's stored matrix is rounded to 6 digits: FRE well under 0.05 mm.
+  EXPECT_LT(j["fre_rms_mm"].get<double>(), 0.05);
+  EXPECT_NEAR(j["phantom_to_reference"][3].get<double>(), truth(0, 3), 0.05);
+  EXPECT_TRUE(std::filesystem::exists(out));
+  const auto reread = io::readDeviceSet(out);
+  EXPECT_LT((reread.findTransform("Phantom", "Reference")->to_T_from - truth).norm(), 0.05);
+
+  tips.points.pop_back();
+  io::writeLandmarks(tips, dir / "seven.mrk.json");
+  const auto bad = runCli({"register-phantom", "--config", config.string(), "--points", (dir / "seven.mrk.json").string()});
+  EXPECT_EQ(bad.exit_code, 1);
 }
 
 }  // namespace

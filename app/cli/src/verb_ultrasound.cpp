@@ -6,10 +6,12 @@ namespace mrsns::cli {
 
 void registerCalibrateUsVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs);
 void registerCalibrateTemporalVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs);
+void registerRegisterPhantomVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs);
 
 void registerUltrasoundVerbs(CLI::App& app, GlobalOptions& options, VerbList& verbs) {
   registerCalibrateUsVerb(app, options, verbs);
   registerCalibrateTemporalVerb(app, options, verbs);
+  registerRegisterPhantomVerb(app, options, verbs);
 }
 
 }  // namespace mrsns::cli
