@@ -120,7 +120,12 @@ void HologramStreamer::update(double fallback_timestamp) noexcept {
       }
       stream.ok = ok;
       stream.announced = true;
-      if (!ok) continue;
+      if (!ok) {
+        stream.last_sent = std::numeric_limits<double>::quiet_NaN();
+        continue;
+      }
+      if (std::isfinite(result.timestamp) && result.timestamp == stream.last_sent) continue;
+      stream.last_sent = result.timestamp;
       const Eigen::Matrix4d m =
           options_.unity ? transformToUnity(result.to_T_from.matrix()) : Eigen::Matrix4d(result.to_T_from.matrix());
       const auto message = igtlink::makeMessage(stream.device, igtlink::TransformContent{m}, t);

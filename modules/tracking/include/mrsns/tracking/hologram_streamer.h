@@ -17,6 +17,7 @@
 // Send-only: whatever a client sends is counted, logged (rate-limited) and
 // ignored. Nothing a client sends reaches the repository or the models.
 #include <chrono>
+#include <limits>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -75,7 +76,10 @@ class HologramStreamer {
   HologramStreamer& operator=(const HologramStreamer&) = delete;
 
   /// Evaluates every model's chain and queues its TRANSFORM (or STATUS on a
-  /// change) for every ready client. Call it from the tracking source's
+  /// change) for every ready client; a chain whose timestamp has not changed
+  /// since it was last sent (no new tracking data on its path) is not sent
+  /// again, so a tracker that reports tools one message each does not
+  /// multiply the stream. Call it from the tracking source's
   /// update callback. `fallback_timestamp` (s since 1970) is used when the
   /// chain has no timestamp (all persistent). Never throws.
   void update(double fallback_timestamp) noexcept;
@@ -88,7 +92,8 @@ class HologramStreamer {
     std::string device;
     TransformRepository::Query query;
     bool ok = false;
-    bool announced = false;  // a status has been established (first update)
+    bool announced = false;                                       // a status has been established (first update)
+    double last_sent = std::numeric_limits<double>::quiet_NaN();  // chain timestamp last sent
   };
   void onConnect(igtlink::ClientId client) noexcept;
   void onDisconnect(igtlink::ClientId client) noexcept;
