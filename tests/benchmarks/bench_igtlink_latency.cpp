@@ -76,8 +76,8 @@ void BM_HologramStreamLatency(benchmark::State& state) {
       const auto index = static_cast<long>(std::lround(tick));
       if (index < 0 || index >= kTicks) return;
       std::lock_guard lock(mutex);
-      // The streamer sends every tool on each update; count a tool only on the
-      // update its own message caused (its timestamp is the repository's).
+      // The streamer sends a tool only when its timestamp changed, so each
+      // received message is the one its own PlusServer message caused.
       latencies_us.push_back(std::chrono::duration<double, std::micro>(now - sent[index]).count());
     });
     source.start();
