@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
-# Builds the libFuzzer targets with clang (build-fuzz/) and runs the
-# sequence-header fuzzer for SECONDS (default 30) on a scratch copy of its
-# seed corpus, so the checked-in seeds never change. Prints the executions
+# Builds the libFuzzer targets with clang (build-fuzz/) and runs each
+# (the sequence-file header parser, the OpenIGTLink decoder) for SECONDS
+# (default 30) on a scratch copy of its seed corpus, so the checked-in seeds
+# never change. Prints the executions
 # and their rate; exits non-zero when the fuzzer finds a crash, leak or
 # sanitizer error (the reproducer is left in build-fuzz/findings/).
 #   scripts/fuzz.sh [SECONDS]
@@ -13,22 +14,31 @@ if [ ! -f "$fuzz_build/build.ninja" ]; then
   CC=clang-14 CXX=clang++-14 cmake -S "$MRSNS_ROOT" -B "$fuzz_build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
     -DMRSNS_BUILD_FUZZERS=ON >/dev/null
 fi
-ninja -C "$fuzz_build" fuzz_sequence_header
+targets=("fuzz_sequence_header:sequence_header" "fuzz_igtlink_decoder:igtlink")
+names=()
+for t in "${targets[@]}"; do names+=("${t%%:*}"); done
+ninja -C "$fuzz_build" "${names[@]}"
 
 work="$(mktemp -d)"
 trap 'rm -rf "$work"' EXIT
-cp -r "$MRSNS_ROOT/tests/fuzz/corpus/sequence_header" "$work/corpus"
 mkdir -p "$fuzz_build/findings"
-log="$work/fuzz.log"
-status=0
-"$fuzz_build/tests/fuzz/fuzz_sequence_header" "$work/corpus" -max_total_time="$seconds" -rss_limit_mb=2048 \
-  -max_len=65536 -print_final_stats=1 -artifact_prefix="$fuzz_build/findings/" >"$log" 2>&1 || status=$?
-runs=$(grep -oE 'stat::number_of_executed_units: *[0-9]+' "$log" | grep -oE '[0-9]+$' || echo 0)
-elapsed=$(grep -oE 'Done [0-9]+ runs in [0-9]+ second' "$log" | grep -oE 'in [0-9]+' | grep -oE '[0-9]+' || echo "$seconds")
-[ "${elapsed:-0}" -gt 0 ] || elapsed="$seconds"
-echo "fuzz_sequence_header: $runs executions in ${elapsed} s ($(( runs / elapsed )) exec/s)"
-if [ "$status" -ne 0 ]; then
-  tail -n 40 "$log"
-  echo "fuzz_sequence_header: FINDING (exit $status), reproducer in $fuzz_build/findings/" >&2
-  exit 1
-fi
+failed=0
+for t in "${targets[@]}"; do
+  target="${t%%:*}"
+  corpus="${t##*:}"
+  cp -r "$MRSNS_ROOT/tests/fuzz/corpus/$corpus" "$work/$corpus"
+  log="$work/$target.log"
+  status=0
+  "$fuzz_build/tests/fuzz/$target" "$work/$corpus" -max_total_time="$seconds" -rss_limit_mb=2048 \
+    -max_len=65536 -print_final_stats=1 -artifact_prefix="$fuzz_build/findings/$target-" >"$log" 2>&1 || status=$?
+  runs=$(grep -oE 'stat::number_of_executed_units: *[0-9]+' "$log" | grep -oE '[0-9]+$' || echo 0)
+  elapsed=$(grep -oE 'Done [0-9]+ runs in [0-9]+ second' "$log" | grep -oE 'in [0-9]+' | grep -oE '[0-9]+' || echo "$seconds")
+  [ "${elapsed:-0}" -gt 0 ] || elapsed="$seconds"
+  echo "$target: $runs executions in ${elapsed} s ($(( runs / elapsed )) exec/s)"
+  if [ "$status" -ne 0 ]; then
+    tail -n 40 "$log"
+    echo "$target: FINDING (exit $status), reproducer in $fuzz_build/findings/" >&2
+    failed=1
+  fi
+done
+exit "$failed"
