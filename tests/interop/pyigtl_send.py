@@ -2,7 +2,9 @@
 """Interop: pyigtl 0.3.4 (PyPI, written by the SlicerIGT team, not here)
 connects to an MR-SNS OpenIGTLink server and sends header-v2 messages with
 metadata: TRANSFORM, IMAGE, STRING and POINT. The C++ side
-(test_pyigtl_send.cpp) checks what it decoded against the values below.
+(test_pyigtl_send.cpp) checks what it decoded against the values below,
+then answers with its own v2 IMAGE, STRING and POINT, which pyigtl must
+decode to the values checked here (exit 1 with a message otherwise).
 
 usage: pyigtl_send.py --port PORT
 """
@@ -49,9 +51,36 @@ def main():
 
     for message in (transform, image, string, point):
         client.send_message(message, wait=True)
-    time.sleep(0.3)  # let the bytes leave before the client thread stops
+
+    # The other direction: what the MR-SNS encoder sends back.
+    failures = []
+    reply_image = client.wait_for_message("MrsnsImage", timeout=10)
+    reply_text = client.wait_for_message("MrsnsText", timeout=5)
+    reply_points = client.wait_for_message("MrsnsPoints", timeout=5)
     client.stop()
-    print("sent 4 messages")
+    if reply_image is None or reply_text is None or reply_points is None:
+        print("FAIL: missing replies from the MR-SNS server (image %s, text %s, points %s)" %
+              (reply_image is not None, reply_text is not None, reply_points is not None))
+        return 1
+    expected = np.fromfunction(lambda k, j, i: 3 * k + 2 * j + i, (2, 2, 3), dtype=int).astype(np.uint8)
+    got = np.squeeze(np.asarray(reply_image.image))
+    if got.shape != expected.shape or not np.array_equal(got, expected):
+        failures.append("IMAGE voxels %s, expected %s" % (got.tolist(), expected.tolist()))
+    spacing = np.linalg.norm(np.asarray(reply_image.ijk_to_world_matrix)[0:3, 0:3], axis=0)
+    if not np.allclose(spacing, [0.3, 0.4, 1.5], atol=1e-5):
+        failures.append("IMAGE spacing %s, expected [0.3, 0.4, 1.5]" % spacing)
+    if reply_image.metadata.get("Source") != "mrsns":
+        failures.append("IMAGE metadata %s" % reply_image.metadata)
+    if reply_text.string != "hello from mrsns":
+        failures.append("STRING %r" % reply_text.string)
+    if list(reply_points.names) != ["Nasion", "Tip"]:
+        failures.append("POINT names %s" % reply_points.names)
+    elif not np.allclose(np.asarray(reply_points.positions)[1], [7.5, -8.0, 9.25]):
+        failures.append("POINT positions %s" % reply_points.positions)
+    if failures:
+        print("FAIL: " + "; ".join(failures))
+        return 1
+    print("sent 4 messages, received and checked 3")
     return 0
 
 

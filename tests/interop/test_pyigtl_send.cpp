@@ -1,6 +1,8 @@
-// Interop, the other direction: pyigtl (PyPI) sends OpenIGTLink v2 messages
-// with metadata to an MR-SNS server; the server must decode them exactly.
-// Skipped (not failed) when no Python with pyigtl is available.
+// Interop with pyigtl (PyPI) both ways: pyigtl sends OpenIGTLink v2
+// messages with metadata to an MR-SNS server, which must decode them exactly;
+// the server answers with v2 IMAGE, STRING and POINT that pyigtl must decode
+// (checked in pyigtl_send.py). Skipped (not failed) when no Python with
+// pyigtl is available.
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 
@@ -23,7 +25,7 @@ std::string pythonWithPyigtl() {
   return std::system(probe.c_str()) == 0 ? python : std::string();
 }
 
-TEST(Pyigtl, SendsTransformImageStringPointWithMetadataThatWeDecode) {
+TEST(Pyigtl, ExchangesV2MessagesWithMetadataBothWays) {
   const auto python = pythonWithPyigtl();
   if (python.empty()) {
     GTEST_SKIP() << "no Python with pyigtl (scripts/test.sh creates build/venv with pyigtl==0.3.4, or set "
@@ -34,15 +36,36 @@ TEST(Pyigtl, SendsTransformImageStringPointWithMetadataThatWeDecode) {
   Server server(options);
   std::mutex mutex;
   std::vector<Message> received;
-  server.onMessage([&](ClientId, const Message& m) {
+  server.onMessage([&](ClientId client, const Message& m) {
     std::lock_guard lock(mutex);
     received.push_back(m);
+    if (m.header.type != "POINT") return;
+    // pyigtl sends POINT last: answer with our own encodings.
+    ImageContent image;
+    image.resizeWhole({3, 2, 2});
+    image.setGeometry(Eigen::Vector3d(0.3, 0.4, 1.5), Eigen::Matrix3d::Identity(), Eigen::Vector3d(1, 2, 3));
+    for (int k = 0; k < 2; ++k) {
+      for (int j = 0; j < 2; ++j) {
+        for (int i = 0; i < 3; ++i)
+          image.pixels[static_cast<std::size_t>(i + 3 * j + 6 * k)] = static_cast<std::uint8_t>(3 * k + 2 * j + i);
+      }
+    }
+    auto image_message = makeMessage("MrsnsImage", image);
+    image_message.metadata.push_back({"Source", kEncodingUsAscii, "mrsns"});
+    server.send(client, image_message, HeaderVersion::kV2, Channel::Reliable);
+    server.send(client, makeMessage("MrsnsText", StringContent{kEncodingUsAscii, "hello from mrsns"}),
+                HeaderVersion::kV2, Channel::Reliable);
+    PointContent points;
+    points.points.push_back({"Nasion", "Fiducial", {255, 0, 0, 255}, {1, 2, 3}, 1.0, "CT"});
+    points.points.push_back({"Tip", "Fiducial", {0, 255, 0, 255}, {7.5, -8.0, 9.25}, 1.0, "CT"});
+    server.send(client, makeMessage("MrsnsPoints", points), HeaderVersion::kV2, Channel::Reliable);
   });
   server.start();
-  const std::string command = "'" + python + "' '" MRSNS_INTEROP_DIR "/pyigtl_send.py' --port " +
-                              std::to_string(server.port()) + " 2>&1";
+  const std::string command =
+      "'" + python + "' '" MRSNS_INTEROP_DIR "/pyigtl_send.py' --port " + std::to_string(server.port()) + " 2>&1";
   const int status = std::system(command.c_str());
-  ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << "pyigtl_send.py failed: " << command;
+  ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0)
+      << "pyigtl_send.py failed (its FAIL line above says what): " << command;
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
   for (;;) {
     {
