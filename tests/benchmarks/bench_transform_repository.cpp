@@ -88,7 +88,8 @@ void BM_PreparedQueryLatencyPercentiles(benchmark::State& state) {
     auto result = repo.evaluate(query);
     benchmark::DoNotOptimize(result);
     const auto stop = std::chrono::steady_clock::now();
-    if (samples.size() < samples.capacity()) samples.push_back(std::chrono::duration<double, std::nano>(stop - start).count());
+    if (samples.size() < samples.capacity())
+      samples.push_back(std::chrono::duration<double, std::nano>(stop - start).count());
   }
   std::sort(samples.begin(), samples.end());
   if (!samples.empty()) {

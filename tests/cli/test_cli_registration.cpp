@@ -79,8 +79,8 @@ TEST(CliCalibratePivot, RealRecordingStylusPosesAreRefusedAsNotPivoting) {
   EXPECT_NE(result.err.find("pivot the tool further"), std::string::npos) << result.err;
   // With the range check lowered to zero, the remaining guard (conditioning)
   // still refuses: a still tool cannot determine its tip.
-  const auto forced = runCli({"calibrate-pivot", "--sequence", recording.string(), "--transform",
-                              "StylusToReference", "--min-rotation-deg", "0", "--json"});
+  const auto forced = runCli({"calibrate-pivot", "--sequence", recording.string(), "--transform", "StylusToReference",
+                              "--min-rotation-deg", "0", "--json"});
   EXPECT_EQ(forced.exit_code, 1) << forced.out;
   EXPECT_NE(forced.err.find("ill-conditioned"), std::string::npos) << forced.err;
 }
@@ -98,14 +98,15 @@ void writeFcsv(const std::filesystem::path& path, const std::vector<std::pair<st
          "# columns = id,x,y,z,ow,ox,oy,oz,vis,sel,lock,label,desc,associatedNodeID\n";
   int id = 0;
   for (const auto& [label, p] : points) {
-    out << "vtkMRMLMarkupsFiducialNode_" << id++ << ',' << p.x() << ',' << p.y() << ',' << p.z()
-        << ",0,0,0,1,1,1,0," << label << ",,\n";
+    out << "vtkMRMLMarkupsFiducialNode_" << id++ << ',' << p.x() << ',' << p.y() << ',' << p.z() << ",0,0,0,1,1,1,0,"
+        << label << ",,\n";
   }
 }
 
 TEST(CliRegisterPoints, RecoversTransformFlagsBadPointAndPredictsTre) {
   const auto dir = scratchDirectory("register");
-  const std::vector<Eigen::Vector3d> ct{{0, 0, 0}, {40, 5, 10}, {-35, 8, 20}, {5, 45, -10}, {10, -40, 15}, {-20, -15, 40}};
+  const std::vector<Eigen::Vector3d> ct{{0, 0, 0},    {40, 5, 10},   {-35, 8, 20},
+                                        {5, 45, -10}, {10, -40, 15}, {-20, -15, 40}};
   Eigen::Isometry3d patient_T_ct = Eigen::Isometry3d::Identity();
   patient_T_ct.linear() = so3Exp(Eigen::Vector3d(0.2, -0.4, 1.0));
   patient_T_ct.translation() = Eigen::Vector3d(100, 50, -20);
@@ -121,9 +122,9 @@ TEST(CliRegisterPoints, RecoversTransformFlagsBadPointAndPredictsTre) {
   writeFcsv(dir / "patient.fcsv", fixed);
   writeFcsv(dir / "ct.fcsv", moving);
   writeFcsv(dir / "targets.fcsv", {{"C5-left", Eigen::Vector3d(10, 10, 60)}});
-  const auto result = runCli({"register-points", (dir / "patient.fcsv").string(), (dir / "ct.fcsv").string(),
-                              "--targets", (dir / "targets.fcsv").string(), "--output", (dir / "t.h5").string(),
-                              "--json"});
+  const auto result =
+      runCli({"register-points", (dir / "patient.fcsv").string(), (dir / "ct.fcsv").string(), "--targets",
+              (dir / "targets.fcsv").string(), "--output", (dir / "t.h5").string(), "--json"});
   ASSERT_EQ(result.exit_code, 0) << result.err;
   const auto json = nlohmann::json::parse(result.out);
   EXPECT_EQ(json["pairing"], "label");

@@ -191,7 +191,8 @@ TEST(CliUltrasound, RegisterPhantomFromStylusPoints) {
 
   tips.points.pop_back();
   io::writeLandmarks(tips, dir / "seven.mrk.json");
-  const auto bad = runCli({"register-phantom", "--config", config.string(), "--points", (dir / "seven.mrk.json").string()});
+  const auto bad =
+      runCli({"register-phantom", "--config", config.string(), "--points", (dir / "seven.mrk.json").string()});
   EXPECT_EQ(bad.exit_code, 1);
 }
 

@@ -35,8 +35,10 @@ TEST(DataDirectory, EnvironmentOverridesBuildDefault) {
   ::setenv("MRSNS_DATA_DIR", "/nonexistent/mrsns-data", 1);
   EXPECT_EQ(dataDirectory(), std::filesystem::path("/nonexistent/mrsns-data"));
   EXPECT_FALSE(findDataFile("plus").has_value());
-  if (old) ::setenv("MRSNS_DATA_DIR", saved.c_str(), 1);
-  else ::unsetenv("MRSNS_DATA_DIR");
+  if (old)
+    ::setenv("MRSNS_DATA_DIR", saved.c_str(), 1);
+  else
+    ::unsetenv("MRSNS_DATA_DIR");
 }
 
 TEST(TransformStatusNames, FollowPlusSpellingAndOrder) {

@@ -25,8 +25,8 @@ Eigen::Isometry3d groundTruth() {
   return fixed_T_moving;
 }
 
-std::vector<Eigen::Vector3d> mapped(const std::vector<Eigen::Vector3d>& points, const Eigen::Isometry3d& t,
-                                    double fle, std::mt19937& rng) {
+std::vector<Eigen::Vector3d> mapped(const std::vector<Eigen::Vector3d>& points, const Eigen::Isometry3d& t, double fle,
+                                    std::mt19937& rng) {
   std::normal_distribution<double> gauss(0.0, fle / std::sqrt(3.0));
   std::vector<Eigen::Vector3d> out;
   for (const auto& p : points) out.push_back(t * p + Eigen::Vector3d(gauss(rng), gauss(rng), gauss(rng)));

@@ -27,8 +27,10 @@ inline std::filesystem::path cliBinary() {
 inline std::string quoteArgument(const std::string& s) {
   std::string quoted = "'";
   for (char c : s) {
-    if (c == '\'') quoted += "'\\''";
-    else quoted += c;
+    if (c == '\'')
+      quoted += "'\\''";
+    else
+      quoted += c;
   }
   return quoted + "'";
 }

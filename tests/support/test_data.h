@@ -16,8 +16,8 @@ namespace mrsns::test {
 inline std::filesystem::path scratchDirectory(const std::string& name) {
   const char* binary = std::getenv("MRSNS_BINARY_DIR");
   if (binary == nullptr) binary = MRSNS_TEST_BINARY_DIR;
-  std::filesystem::path base =
-      binary ? std::filesystem::path(binary) / "Testing" / "scratch" : std::filesystem::temp_directory_path() / "mrsns-tests";
+  std::filesystem::path base = binary ? std::filesystem::path(binary) / "Testing" / "scratch"
+                                      : std::filesystem::temp_directory_path() / "mrsns-tests";
   const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
   std::string dir = name;
   if (info != nullptr) dir = std::string(info->test_suite_name()) + "." + info->name() + "." + name;
@@ -30,11 +30,10 @@ inline std::filesystem::path scratchDirectory(const std::string& name) {
 }  // namespace mrsns::test
 
 /// Declares `var` (a std::filesystem::path) as the data file `relative`, or skips the test.
-#define MRSNS_REQUIRE_DATA(var, relative)                                                        \
-  const auto var##_found = ::mrsns::findDataFile(relative);                                     \
-  if (!var##_found) {                                                                           \
-    GTEST_SKIP() << "shared data file '" << (relative) << "' not found under "                   \
-                 << ::mrsns::dataDirectory()                                                     \
-                 << " (set MRSNS_DATA_DIR or the CMake cache variable MRSNS_DATA_DIR)";          \
-  }                                                                                              \
+#define MRSNS_REQUIRE_DATA(var, relative)                                                                  \
+  const auto var##_found = ::mrsns::findDataFile(relative);                                                \
+  if (!var##_found) {                                                                                      \
+    GTEST_SKIP() << "shared data file '" << (relative) << "' not found under " << ::mrsns::dataDirectory() \
+                 << " (set MRSNS_DATA_DIR or the CMake cache variable MRSNS_DATA_DIR)";                    \
+  }                                                                                                        \
   const std::filesystem::path var = *var##_found

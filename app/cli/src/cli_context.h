@@ -4,9 +4,8 @@
 // human-readable text, and maps errors to exit codes (0 ok, 1 bad input or
 // failed computation, 2 usage).
 #include <CLI/CLI.hpp>
-#include <nlohmann/json.hpp>
-
 #include <functional>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <utility>
 #include <vector>

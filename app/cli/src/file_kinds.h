@@ -42,10 +42,13 @@ Report summarizeLandmarks(const std::filesystem::path& path);
 Report summarizeTransform(const std::filesystem::path& path);
 
 // Convert between formats of one kind; the report says what was written.
-Report convertSequence(const std::filesystem::path& in, const std::filesystem::path& out, const ConvertOptions& options);
+Report convertSequence(const std::filesystem::path& in, const std::filesystem::path& out,
+                       const ConvertOptions& options);
 Report convertMesh(const std::filesystem::path& in, const std::filesystem::path& out, const ConvertOptions& options);
 Report convertImage(const std::filesystem::path& in, const std::filesystem::path& out, const ConvertOptions& options);
-Report convertLandmarks(const std::filesystem::path& in, const std::filesystem::path& out, const ConvertOptions& options);
-Report convertTransform(const std::filesystem::path& in, const std::filesystem::path& out, const ConvertOptions& options);
+Report convertLandmarks(const std::filesystem::path& in, const std::filesystem::path& out,
+                        const ConvertOptions& options);
+Report convertTransform(const std::filesystem::path& in, const std::filesystem::path& out,
+                        const ConvertOptions& options);
 
 }  // namespace mrsns::cli

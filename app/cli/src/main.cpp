@@ -24,9 +24,10 @@ std::string firstLine(const std::string& message) {
 
 int main(int argc, char** argv) {
   using namespace mrsns::cli;
-  CLI::App app{"mrsns-cli: the MR-SNS surgical navigation engine, headless.\n"
-               "Every workflow step is a verb; every verb takes --json and then prints one JSON object.",
-               "mrsns-cli"};
+  CLI::App app{
+      "mrsns-cli: the MR-SNS surgical navigation engine, headless.\n"
+      "Every workflow step is a verb; every verb takes --json and then prints one JSON object.",
+      "mrsns-cli"};
   app.set_version_flag("--version", std::string("mrsns-cli ") + mrsns::versionString());
   app.require_subcommand(1);
   GlobalOptions options;

@@ -11,7 +11,8 @@ namespace mrsns::cli {
 
 void addPoseSourceOptions(CLI::App& sub, PoseSourceOptions& options, const std::string& default_transform) {
   options.transform = default_transform;
-  sub.add_option("--sequence", options.sequence, "PLUS sequence file (.igs.mha, .seq.mha, .mhd, .seq.nrrd) with the poses");
+  sub.add_option("--sequence", options.sequence,
+                 "PLUS sequence file (.igs.mha, .seq.mha, .mhd, .seq.nrrd) with the poses");
   sub.add_option("--transform", options.transform,
                  "transform to take from each frame, PLUS style (computed through the frame's transforms, e.g. "
                  "StylusToReference from StylusToTracker and ReferenceToTracker)")

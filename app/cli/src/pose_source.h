@@ -3,7 +3,6 @@
 // transform name (computed per frame through the transform repository), or
 // from a pose CSV.
 #include <Eigen/Geometry>
-
 #include <memory>
 #include <string>
 #include <vector>

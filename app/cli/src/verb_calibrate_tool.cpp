@@ -14,7 +14,9 @@ namespace {
 
 constexpr double kDegPerRad = 180.0 / 3.14159265358979323846;
 
-Json vectorJson(const Eigen::Vector3d& v) { return Json::array({v.x(), v.y(), v.z()}); }
+Json vectorJson(const Eigen::Vector3d& v) {
+  return Json::array({v.x(), v.y(), v.z()});
+}
 
 struct PivotVerbOptions {
   PoseSourceOptions source;
@@ -57,8 +59,8 @@ Report runPivot(const PivotVerbOptions& options) {
   std::ostringstream text;
   text << "Pivot calibration of " << loaded.summary.value("transform", std::string("poses")) << " ("
        << result.inlier_count << " of " << loaded.poses.size() << " poses used)\n"
-       << "  tip in marker frame: " << formatVector(result.tip_marker) << " mm (length "
-       << result.tip_marker.norm() << " mm)\n"
+       << "  tip in marker frame: " << formatVector(result.tip_marker) << " mm (length " << result.tip_marker.norm()
+       << " mm)\n"
        << "  pivot point:         " << formatVector(result.pivot_tracker) << " mm\n"
        << "  RMS residual:        " << result.rms_mm << " mm (max " << result.max_residual_mm << " mm)\n"
        << "  rotation range:      " << result.rotation_range * kDegPerRad << " deg\n"

@@ -41,8 +41,7 @@ void registerInfoVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs) {
   });
 }
 
-void registerConvertVerb(CLI::App& app, GlobalOptions& options,
-                         VerbList& verbs) {
+void registerConvertVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs) {
   auto* sub = app.add_subcommand("convert",
                                  "Convert a file to another format of the same kind; the output format follows from "
                                  "OUT's extension (e.g. .igs.mha -> .seq.nrrd, .stl -> .vtp, DICOM -> .nrrd, .fcsv -> "

@@ -70,8 +70,7 @@ std::vector<std::pair<std::size_t, std::size_t>> pairPoints(const LandmarkSet& f
   }
   if (fixed.points.size() != moving.points.size()) {
     throw InvalidArgumentError("the landmark files hold different numbers of points (" +
-                               std::to_string(fixed.points.size()) + " fixed, " +
-                               std::to_string(moving.points.size()) +
+                               std::to_string(fixed.points.size()) + " fixed, " + std::to_string(moving.points.size()) +
                                " moving): both must list the same landmarks in the same order");
   }
   for (std::size_t i = 0; i < fixed.points.size(); ++i) pairs.emplace_back(i, i);
@@ -79,7 +78,9 @@ std::vector<std::pair<std::size_t, std::size_t>> pairPoints(const LandmarkSet& f
   return pairs;
 }
 
-Json vectorJson(const Eigen::Vector3d& v) { return Json::array({v.x(), v.y(), v.z()}); }
+Json vectorJson(const Eigen::Vector3d& v) {
+  return Json::array({v.x(), v.y(), v.z()});
+}
 
 Report run(const RegisterPointsOptions& options) {
   const auto fixed = io::readLandmarks(options.fixed);
@@ -143,7 +144,8 @@ Report run(const RegisterPointsOptions& options) {
     Json tre = Json::array();
     for (const auto& t : targets.points) {
       const double predicted = registration::predictTreRms(moving_points, t.position, fle);
-      tre.push_back(Json{{"label", t.label}, {"position_moving_mm", vectorJson(t.position)},
+      tre.push_back(Json{{"label", t.label},
+                         {"position_moving_mm", vectorJson(t.position)},
                          {"position_fixed_mm", vectorJson(result.fixed_T_moving * t.position)},
                          {"predicted_tre_rms_mm", predicted}});
       text << "  target " << t.label << ": predicted TRE " << predicted << " mm RMS\n";
@@ -170,15 +172,15 @@ void registerRegisterPointsVerb(CLI::App& app, GlobalOptions& options, VerbList&
       "Paired-point (landmark) registration of MOVING onto FIXED (Slicer .mrk.json/.fcsv/.csv): rigid or with "
       "isotropic scale; FRE per point, leave-one-out check for a wrong point, predicted TRE at targets");
   sub->add_option("FIXED", opts->fixed, "landmarks in the fixed frame (e.g. digitised on the patient)")->required();
-  sub->add_option("MOVING", opts->moving, "the same landmarks in the moving frame (e.g. picked in the CT)")
-      ->required();
+  sub->add_option("MOVING", opts->moving, "the same landmarks in the moving frame (e.g. picked in the CT)")->required();
   sub->add_flag("--scale", opts->scale, "also estimate an isotropic scale");
   sub->add_option("--pair-by", opts->pair_by, "pair points by 'label', by 'order', or 'auto' (labels when usable)")
       ->check(CLI::IsMember({"auto", "label", "order"}))
       ->capture_default_str();
   sub->add_option("--targets", opts->targets, "targets in the moving frame: predicted TRE at each (Fitzpatrick-West)");
-  sub->add_option("--fle", opts->fle_mm, "fiducial localisation error RMS (mm) for the TRE prediction; default: "
-                                         "implied by the FRE");
+  sub->add_option("--fle", opts->fle_mm,
+                  "fiducial localisation error RMS (mm) for the TRE prediction; default: "
+                  "implied by the FRE");
   sub->add_option("--output", opts->output, "write the transform MovingToFixed (.tfm, .h5 or .txt)");
   addJsonFlag(*sub, options);
   verbs.emplace_back(sub, [opts] { return run(*opts); });

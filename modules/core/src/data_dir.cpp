@@ -20,6 +20,8 @@ std::optional<std::filesystem::path> findDataFile(const std::string& relative) {
   return std::nullopt;
 }
 
-const char* versionString() { return MRSNS_VERSION; }
+const char* versionString() {
+  return MRSNS_VERSION;
+}
 
 }  // namespace mrsns

@@ -43,8 +43,8 @@ FramePoseExtraction extractFramePoses(const std::vector<TrackedFrame>& frames, c
   if (extraction.poses.empty() && extraction.invalid_frames == 0) {
     std::string list;
     for (const auto& n : available) list += (list.empty() ? "" : ", ") + n;
-    throw FrameError("no frame of the sequence can give '" + transform_name + "' (the frames report: " +
-                     (list.empty() ? std::string("no transforms") : list) + ")");
+    throw FrameError("no frame of the sequence can give '" + transform_name +
+                     "' (the frames report: " + (list.empty() ? std::string("no transforms") : list) + ")");
   }
   return extraction;
 }

@@ -13,7 +13,9 @@
 namespace mrsns {
 namespace {
 
-bool isUpper(char c) { return c >= 'A' && c <= 'Z'; }
+bool isUpper(char c) {
+  return c >= 'A' && c <= 'Z';
+}
 
 bool isRotation(const Eigen::Matrix3d& r) {
   constexpr double kTolerance = 1e-6;
@@ -180,8 +182,8 @@ struct TransformRepository::Impl {
     std::sort(known.begin(), known.end());
     std::string list;
     for (const auto& n : known) list += (list.empty() ? "" : ", ") + n;
-    throw FrameError("unknown coordinate frame '" + std::string(frame) + "' (known frames: " +
-                     (list.empty() ? std::string("none yet") : list) + ")");
+    throw FrameError("unknown coordinate frame '" + std::string(frame) +
+                     "' (known frames: " + (list.empty() ? std::string("none yet") : list) + ")");
   }
 
   const std::vector<Query::Step>& cachedPath(std::string_view from, std::string_view to, std::int32_t f,
@@ -205,9 +207,8 @@ struct TransformRepository::Impl {
 TransformRepository::TransformRepository() : impl_(std::make_unique<Impl>()) {}
 TransformRepository::~TransformRepository() = default;
 
-void TransformRepository::setTransform(std::string_view from, std::string_view to,
-                                       const Eigen::Isometry3d& to_T_from, TransformStatus status, double timestamp,
-                                       bool persistent) {
+void TransformRepository::setTransform(std::string_view from, std::string_view to, const Eigen::Isometry3d& to_T_from,
+                                       TransformStatus status, double timestamp, bool persistent) {
   if (from.empty() || to.empty()) throw InvalidArgumentError("transform frame names must not be empty");
   if (from == to) {
     throw InvalidArgumentError("transform '" + std::string(from) + "To" + std::string(to) +

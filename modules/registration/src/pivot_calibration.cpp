@@ -119,8 +119,8 @@ PivotResult calibratePivot(std::span<const Eigen::Isometry3d> tracker_T_marker, 
     }
     if (best_count < options.min_poses) {
       throw ComputationError("robust pivot calibration: no consistent pivot found (best " +
-                             std::to_string(std::max(best_count, 0)) + " of " + std::to_string(n) +
-                             " poses within " + formatFixed(options.inlier_threshold_mm, 2) +
+                             std::to_string(std::max(best_count, 0)) + " of " + std::to_string(n) + " poses within " +
+                             formatFixed(options.inlier_threshold_mm, 2) +
                              " mm): check that the tip stayed in the divot, or raise the inlier threshold");
     }
     use = best;

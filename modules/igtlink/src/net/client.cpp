@@ -66,8 +66,8 @@ struct Client::Impl : std::enable_shared_from_this<Client::Impl> {
     }
     logger()->debug("OpenIGTLink client: {}:{}: {}; retrying in {:.2f} s", options.host, options.port, reason,
                     backoff_s);
-    timer.expires_after(std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-        std::chrono::duration<double>(backoff_s)));
+    timer.expires_after(
+        std::chrono::duration_cast<std::chrono::steady_clock::duration>(std::chrono::duration<double>(backoff_s)));
     backoff_s = std::min(backoff_s * 2.0, options.backoff_max_s);
     timer.async_wait([self = shared_from_this()](const asio::error_code& ec) {
       if (!ec) self->connect();
@@ -88,39 +88,39 @@ struct Client::Impl : std::enable_shared_from_this<Client::Impl> {
   }
 
   void read() {
-    socket.async_read_some(asio::buffer(read_buffer), [self = shared_from_this()](const asio::error_code& ec,
-                                                                                 std::size_t n) {
-      if (self->stopping) return;
-      if (ec) {
-        self->disconnected(ec.message());
-        return;
-      }
-      try {
-        self->framer.push(std::span<const std::uint8_t>(self->read_buffer.data(), n));
-      } catch (const Error& e) {
-        self->malformed.fetch_add(1);
-        self->disconnected(std::string("unframeable data from the server: ") + e.what());
-        return;
-      }
-      for (;;) {
-        std::optional<Message> message;
-        try {
-          message = self->framer.next();
-        } catch (const Error& e) {
-          self->malformed.fetch_add(1);
-          if (self->framer.failed()) {
-            self->disconnected(e.what());
-            return;
-          }
-          logger()->warn("OpenIGTLink client: skipped a malformed message: {}", e.what());
-          continue;
-        }
-        if (!message) break;
-        self->received.fetch_add(1);
-        if (self->on_message) self->on_message(*message);
-      }
-      self->read();
-    });
+    socket.async_read_some(asio::buffer(read_buffer),
+                           [self = shared_from_this()](const asio::error_code& ec, std::size_t n) {
+                             if (self->stopping) return;
+                             if (ec) {
+                               self->disconnected(ec.message());
+                               return;
+                             }
+                             try {
+                               self->framer.push(std::span<const std::uint8_t>(self->read_buffer.data(), n));
+                             } catch (const Error& e) {
+                               self->malformed.fetch_add(1);
+                               self->disconnected(std::string("unframeable data from the server: ") + e.what());
+                               return;
+                             }
+                             for (;;) {
+                               std::optional<Message> message;
+                               try {
+                                 message = self->framer.next();
+                               } catch (const Error& e) {
+                                 self->malformed.fetch_add(1);
+                                 if (self->framer.failed()) {
+                                   self->disconnected(e.what());
+                                   return;
+                                 }
+                                 logger()->warn("OpenIGTLink client: skipped a malformed message: {}", e.what());
+                                 continue;
+                               }
+                               if (!message) break;
+                               self->received.fetch_add(1);
+                               if (self->on_message) self->on_message(*message);
+                             }
+                             self->read();
+                           });
   }
 
   void writeNext() {
@@ -147,10 +147,16 @@ struct Client::Impl : std::enable_shared_from_this<Client::Impl> {
 };
 
 Client::Client(ClientOptions options) : impl_(std::make_shared<Impl>(std::move(options))) {}
-Client::~Client() { stop(); }
+Client::~Client() {
+  stop();
+}
 
-void Client::onMessage(MessageHandler handler) { impl_->on_message = std::move(handler); }
-void Client::onConnectionChange(ConnectionHandler handler) { impl_->on_connection = std::move(handler); }
+void Client::onMessage(MessageHandler handler) {
+  impl_->on_message = std::move(handler);
+}
+void Client::onConnectionChange(ConnectionHandler handler) {
+  impl_->on_connection = std::move(handler);
+}
 
 void Client::start() {
   if (impl_->thread.joinable()) return;
@@ -201,7 +207,9 @@ bool Client::send(const Message& message, HeaderVersion version) {
   return true;
 }
 
-bool Client::connected() const { return impl_->is_connected; }
+bool Client::connected() const {
+  return impl_->is_connected;
+}
 
 ClientStats Client::stats() const {
   return ClientStats{impl_->is_connected, impl_->connects, impl_->received, impl_->malformed, impl_->sent};

@@ -4,7 +4,6 @@
 // (e.g. "StylusToReference" from StylusToTracker and ReferenceToTracker) is
 // read by path search, with the worst status along the path.
 #include <Eigen/Geometry>
-
 #include <string>
 #include <vector>
 

@@ -1,7 +1,6 @@
 #pragma once
 // A triangle surface mesh in one named frame, in millimetres.
 #include <Eigen/Core>
-
 #include <cstdint>
 #include <string>
 #include <vector>

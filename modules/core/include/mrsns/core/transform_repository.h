@@ -8,7 +8,6 @@
 // readers (rendering, streaming, supervisor) at once; a reader never sees a
 // half-written matrix.
 #include <Eigen/Geometry>
-
 #include <cstdint>
 #include <limits>
 #include <memory>

@@ -4,7 +4,6 @@
 // seconds, then the 16), separated by commas, semicolons or whitespace.
 // Lines starting with '#' and a first line of column names are skipped.
 #include <Eigen/Geometry>
-
 #include <filesystem>
 #include <vector>
 

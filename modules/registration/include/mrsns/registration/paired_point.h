@@ -7,7 +7,6 @@
 // target registration error (TRE) predicted at any target (Fitzpatrick and
 // West 2001), and leave-one-out errors that single out a wrong point.
 #include <Eigen/Geometry>
-
 #include <optional>
 #include <span>
 #include <vector>

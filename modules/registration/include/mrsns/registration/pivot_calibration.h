@@ -7,7 +7,6 @@
 // of the inliers). Refuses pose sets that cannot determine the tip: too few,
 // a static tool, too small a rotation range, or rotation about one axis only.
 #include <Eigen/Geometry>
-
 #include <span>
 #include <vector>
 

@@ -3,7 +3,6 @@
 // divot; the shaft direction in the marker frame is the common rotation axis
 // of the relative rotations marker_0_T_marker_i.
 #include <Eigen/Geometry>
-
 #include <span>
 #include <vector>
 

@@ -1,2 +1,4 @@
 #include <QString>
-int badFunction() { return 1; }
+int badFunction() {
+  return 1;
+}

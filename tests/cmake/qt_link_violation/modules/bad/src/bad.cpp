@@ -1,1 +1,3 @@
-int badFunction() { return 1; }
+int badFunction() {
+  return 1;
+}
