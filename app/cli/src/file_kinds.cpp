@@ -4,29 +4,11 @@
 #include <cctype>
 #include <fstream>
 
+#include "mrsns/io/file_names.h"
 #include "mrsns/io/sequence_file.h"
 
 namespace mrsns::cli {
-namespace {
-
-std::string lowerName(const std::filesystem::path& path) {
-  std::string name = path.filename().string();
-  std::transform(name.begin(), name.end(), name.begin(), [](unsigned char c) { return std::tolower(c); });
-  return name;
-}
-
-bool endsWith(const std::string& s, const std::string& suffix) {
-  return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
-}
-
-bool startsWithDicomPreamble(const std::filesystem::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  char buffer[132] = {};
-  if (!in.read(buffer, sizeof buffer)) return false;
-  return std::string(buffer + 128, 4) == "DICM";
-}
-
-}  // namespace
+using io::endsWith;
 
 std::string kindName(FileKind kind) {
   switch (kind) {
@@ -44,7 +26,7 @@ std::string kindName(FileKind kind) {
 FileKind detectFileKind(const std::filesystem::path& path) {
   std::error_code ec;
   if (std::filesystem::is_directory(path, ec)) return FileKind::Image;  // a DICOM series folder
-  const std::string name = lowerName(path);
+  const std::string name = io::lowerFileName(path);
   if (endsWith(name, ".seq.nrrd") || endsWith(name, ".seq.nhdr") || endsWith(name, ".igs.mha") ||
       endsWith(name, ".igs.mhd") || endsWith(name, ".seq.mha") || endsWith(name, ".seq.mhd")) {
     return FileKind::Sequence;
@@ -67,7 +49,7 @@ FileKind detectFileKind(const std::filesystem::path& path) {
       endsWith(name, ".txt")) {
     return FileKind::Transform;
   }
-  if (std::filesystem::is_regular_file(path, ec) && startsWithDicomPreamble(path)) return FileKind::Image;
+  if (std::filesystem::is_regular_file(path, ec) && io::hasDicomPreamble(path)) return FileKind::Image;
   return FileKind::Unknown;
 }
 

@@ -7,6 +7,7 @@
 
 #include "cli_context.h"
 #include "mrsns/core/error.h"
+#include "mrsns/io/file_names.h"
 #include "mrsns/io/landmarks_io.h"
 #include "mrsns/io/mesh_io.h"
 #include "mrsns/io/transform_io.h"
@@ -30,11 +31,9 @@ struct RegisterSurfaceOptions {
 };
 
 bool isMeshFile(const std::string& path) {
-  std::string name = path;
-  std::transform(name.begin(), name.end(), name.begin(), [](unsigned char c) { return std::tolower(c); });
+  const std::string name = io::toLower(path);
   for (const char* ext : {".stl", ".vtp", ".vtk", ".obj", ".ply"}) {
-    const std::string e(ext);
-    if (name.size() >= e.size() && name.compare(name.size() - e.size(), e.size(), e) == 0) return true;
+    if (io::endsWith(name, ext)) return true;
   }
   return false;
 }

@@ -15,29 +15,13 @@
 #include "itk_bridge.h"
 #include "mrsns/core/error.h"
 #include "mrsns/core/log.h"
+#include "mrsns/io/file_names.h"
 
 namespace mrsns::io {
 namespace {
 
 std::string quoted(const std::filesystem::path& path) {
   return "'" + path.string() + "'";
-}
-
-std::string lowerName(const std::filesystem::path& path) {
-  std::string name = path.filename().string();
-  std::transform(name.begin(), name.end(), name.begin(), [](unsigned char c) { return std::tolower(c); });
-  return name;
-}
-
-bool endsWith(const std::string& s, const std::string& suffix) {
-  return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
-}
-
-bool hasDicomPreamble(const std::filesystem::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  char buffer[132] = {};
-  if (!in.read(buffer, sizeof buffer)) return false;
-  return std::memcmp(buffer + 128, "DICM", 4) == 0;
 }
 
 detail::RawImageFormat rawFormat(ImageFormat format) {
@@ -220,7 +204,7 @@ std::string imageFormatName(ImageFormat format) {
 ImageFormat imageFormatFromPath(const std::filesystem::path& path) {
   std::error_code ec;
   if (std::filesystem::is_directory(path, ec)) return ImageFormat::Dicom;
-  const std::string name = lowerName(path);
+  const std::string name = lowerFileName(path);
   if (endsWith(name, ".nrrd") || endsWith(name, ".nhdr")) return ImageFormat::Nrrd;
   if (endsWith(name, ".nii") || endsWith(name, ".nii.gz")) return ImageFormat::Nifti;
   if (endsWith(name, ".mha") || endsWith(name, ".mhd")) return ImageFormat::MetaImage;
@@ -273,7 +257,7 @@ ImageVolume readImage(const std::filesystem::path& path) {
 }
 
 void writeImage(const ImageVolume& image, const std::filesystem::path& path, const ImageWriteOptions& options) {
-  const std::string name = lowerName(path);
+  const std::string name = lowerFileName(path);
   ImageFormat format = ImageFormat::Nrrd;
   if (endsWith(name, ".nrrd") || endsWith(name, ".nhdr")) {
     format = ImageFormat::Nrrd;

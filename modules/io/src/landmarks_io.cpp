@@ -13,6 +13,7 @@
 
 #include "mrsns/core/error.h"
 #include "mrsns/core/log.h"
+#include "mrsns/io/file_names.h"
 
 namespace mrsns::io {
 namespace {
@@ -22,12 +23,7 @@ constexpr const char* kMarkupsSchema =
     "markups-schema-v1.0.3.json#";
 
 std::string lower(std::string s) {
-  std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return std::tolower(c); });
-  return s;
-}
-
-bool endsWith(const std::string& s, const std::string& suffix) {
-  return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
+  return toLower(std::move(s));
 }
 
 std::string trim(const std::string& s) {

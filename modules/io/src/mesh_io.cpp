@@ -37,6 +37,7 @@
 
 #include "mrsns/core/error.h"
 #include "mrsns/core/log.h"
+#include "mrsns/io/file_names.h"
 
 namespace mrsns::io {
 namespace {
@@ -112,12 +113,6 @@ class VtkMessageCapture {
 
 std::string quoted(const std::filesystem::path& path) {
   return "'" + path.string() + "'";
-}
-
-std::string lowerExtension(const std::filesystem::path& path) {
-  std::string ext = path.extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
-  return ext;
 }
 
 /// A binary STL is exactly 84 + 50 n bytes; anything else must be ASCII

@@ -15,6 +15,7 @@
 
 #include "itk_bridge.h"
 #include "mrsns/core/error.h"
+#include "mrsns/io/file_names.h"
 
 namespace mrsns::io {
 namespace {
@@ -26,12 +27,6 @@ std::string quoted(const std::filesystem::path& path) {
   s += path.string();
   s += '\'';
   return s;
-}
-
-std::string lowerExtension(const std::filesystem::path& path) {
-  std::string ext = path.extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
-  return ext;
 }
 
 std::string slurp(const std::filesystem::path& path) {
