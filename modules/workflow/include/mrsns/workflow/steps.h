@@ -1,0 +1,67 @@
+#pragma once
+// The steps of the surgical workflow (paper 001 §III.C), each runnable from
+// the CLI and the GUI: a step reads its inputs from the session (or from
+// `params`), writes its outputs into the session folder, and records its
+// figures in session.json. Long steps report progress and stop when asked.
+#include <atomic>
+#include <filesystem>
+#include <functional>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "mrsns/workflow/session.h"
+
+namespace mrsns::workflow {
+
+struct StepInfo {
+  std::string name;   ///< "registration"
+  std::string title;  ///< "Patient registration"
+  std::string area;   ///< "preparation" | "function" (paper 001 Fig. 4)
+  std::string description;
+};
+
+struct StepContext {
+  /// Called from the step's thread with a fraction in [0, 1]; may be empty.
+  std::function<void(double fraction, const std::string& message)> progress;
+  /// When set and true, the step stops at its next check and returns ok=false.
+  const std::atomic<bool>* cancel = nullptr;
+
+  void report(double fraction, const std::string& message) const {
+    if (progress) progress(fraction, message);
+  }
+  [[nodiscard]] bool cancelled() const { return cancel != nullptr && cancel->load(); }
+};
+
+struct StepResult {
+  bool ok = false;
+  bool cancelled = false;
+  std::string summary;                                ///< one line for a status bar
+  nlohmann::json figures = nlohmann::json::object();  ///< quality figures (mm, deg at the boundary, s)
+  std::vector<std::string> outputs;                   ///< files written, relative to the session folder
+};
+
+/// connect-devices, us-spatial-calibration, us-temporal-calibration,
+/// robot-calibration, registration, hmd-calibration, navigation,
+/// robot-placement, in workflow order.
+std::vector<StepInfo> listSteps();
+
+/// Runs `step` on `session` with `params` (a JSON object; every parameter
+/// has a default that works on the bundled data), records the result in the
+/// session and returns it. Throws InvalidArgumentError for an unknown step or
+/// parameter, other mrsns::Error subclasses for bad input; returns ok=false,
+/// cancelled=true when context.cancel was raised.
+StepResult runStep(Session& session, const std::string& step, const nlohmann::json& params,
+                   const StepContext& context = {});
+
+/// The bundled sample session: MRSNS_SAMPLE_SESSION from the environment,
+/// else resources/sample_session in the source tree, else
+/// <prefix>/share/mrsns/sample_session beside the running program. Throws
+/// FileError when none exists.
+std::filesystem::path sampleSessionPath();
+
+/// The share directory holding resources (build tree: the source resources/
+/// folder; installed: <prefix>/share/mrsns).
+std::filesystem::path resourceDirectory();
+
+}  // namespace mrsns::workflow
