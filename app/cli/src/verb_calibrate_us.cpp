@@ -2,6 +2,7 @@
 // ultrasound probe (ImageToProbe) from PLUS recordings, with PLUS's error
 // figures on a calibration and a validation sequence.
 #include <array>
+#include <cmath>
 #include <sstream>
 
 #include "cli_context.h"
@@ -21,6 +22,8 @@ struct CalibrateUsOptions {
   std::string output_config;
   std::string reference_results;
   std::string objective = "distance-to-wires";
+  std::string tracker_lag = "0";  // ms, or "auto"
+  double lag_range_ms = 1000.0;
 };
 
 Json matrixJson(const Eigen::Matrix4d& m) {
@@ -67,7 +70,21 @@ Report run(const CalibrateUsOptions& options) {
   ultrasound::SpatialCalibrationOptions cal_options;
   cal_options.objective = options.objective == "middle-wire" ? ultrasound::CalibrationObjective::MiddleWirePoints
                                                              : ultrasound::CalibrationObjective::DistanceToWires;
-  const auto run = ultrasound::calibrateProbe(config, calibration, validation, cal_options);
+  ultrasound::TrackerLagOptions lag;
+  if (options.tracker_lag == "auto") {
+    lag.estimate = true;
+    lag.search_half_range_s = options.lag_range_ms * 1e-3;
+  } else {
+    try {
+      std::size_t used = 0;
+      lag.lag_s = std::stod(options.tracker_lag, &used) * 1e-3;
+      if (used != options.tracker_lag.size() || !std::isfinite(lag.lag_s)) throw std::invalid_argument("trailing");
+    } catch (const std::exception&) {
+      throw InvalidArgumentError("--tracker-lag-ms: '" + options.tracker_lag +
+                                 "' is neither a number of milliseconds nor 'auto'");
+    }
+  }
+  const auto run = ultrasound::calibrateProbe(config, calibration, validation, cal_options, lag);
   const auto& r = run.result;
 
   Report report;
@@ -85,16 +102,30 @@ Report run(const CalibrateUsOptions& options) {
   j["validation"] = errorsJson(run.validation_errors);
   j["validation"]["sequence"] = options.validation;
   j["validation"]["segmentation"] = segmentationJson(run.validation);
+  j["validation"]["frames_paired"] = run.validation_frames_paired;
+  j["tracker_lag_ms"] = run.tracker_lag.lag_s * 1e3;
+  j["tracker_lag_estimated"] = run.tracker_lag.estimated;
+  if (run.tracker_lag.estimated) {
+    Json curve = Json::array();
+    for (const auto& c : run.tracker_lag.curve) {
+      curve.push_back(Json{
+          {"lag_ms", c.lag_s * 1e3}, {"reprojection_3d_mean_mm", c.reprojection_3d_mean_mm}, {"frames", c.frames}});
+    }
+    j["tracker_lag_curve"] = curve;
+    j["tracker_lag_curvature_mm_per_s2"] = run.tracker_lag.curvature_mm_per_s2;
+  }
   j["seconds"] = run.seconds;
 
   std::ostringstream text;
   text << "ImageToProbe (" << options.objective << "), pixel spacing " << r.pixel_spacing_mm.x() << " x "
        << r.pixel_spacing_mm.y() << " mm:\n"
        << r.probe_T_image << "\n"
+       << "  tracker lag " << run.tracker_lag.lag_s * 1e3 << " ms ("
+       << (run.tracker_lag.estimated ? "estimated" : "given") << ")\n"
        << "  calibration: " << r.frames_used << " frames used (" << r.rejected_frames.size() << " outliers, "
        << run.calibration.total_frames - run.calibration.frames.size() << " not usable), 3D reprojection "
        << r.calibration.reprojection_3d_mean_mm << " +/- " << r.calibration.reprojection_3d_std_mm << " mm\n"
-       << "  validation: " << run.validation.frames.size() << "/" << run.validation.total_frames
+       << "  validation: " << run.validation_frames_paired << "/" << run.validation.total_frames
        << " frames, 3D reprojection " << run.validation_errors.reprojection_3d_mean_mm << " +/- "
        << run.validation_errors.reprojection_3d_std_mm << " mm\n";
   if (!options.reference_results.empty()) {
@@ -109,11 +140,19 @@ Report run(const CalibrateUsOptions& options) {
       corners.push_back(d);
       worst = std::max(worst, d);
     }
+    // The reference matrix judged by the same evaluator on the same segmented
+    // frames, so the two calibrations are compared like for like.
+    const auto ref_validation = ultrasound::evaluateSpatialCalibration(
+        ref, run.validation.frames, ultrasound::nwireGeometry(*config.phantom), ultrasound::phantomToReference(config),
+        ultrasound::wireNames(*config.phantom));
     j["reference"] = Json{{"results", options.reference_results},
                           {"image_to_probe", matrixJson(ref)},
                           {"corner_distances_mm", corners},
-                          {"max_corner_distance_mm", worst}};
-    text << "  image corners vs the reference ImageToProbe: up to " << worst << " mm\n";
+                          {"max_corner_distance_mm", worst},
+                          {"validation", errorsJson(ref_validation)}};
+    text << "  image corners vs the reference ImageToProbe: up to " << worst << " mm\n"
+         << "  the reference ImageToProbe on the same validation frames: 3D reprojection "
+         << ref_validation.reprojection_3d_mean_mm << " +/- " << ref_validation.reprojection_3d_std_mm << " mm\n";
   }
   if (!options.output_config.empty()) {
     ultrasound::writeCoordinateDefinition(options.config, options.output_config, "Image", "Probe", r.probe_T_image,
@@ -142,6 +181,13 @@ void registerCalibrateUsVerb(CLI::App& app, GlobalOptions& options, VerbList& ve
                   "write the configuration with the ImageToProbe in CoordinateDefinitions (PLUS-compatible)");
   sub->add_option("--reference-results", opts->reference_results,
                   "a PLUS ProbeCalibration results file: distances of the mapped image corners to its ImageToProbe");
+  sub->add_option("--tracker-lag-ms", opts->tracker_lag,
+                  "tracker lag applied to both sequences (PLUS TrackerLagSec convention, ms), or 'auto' to estimate it "
+                  "from the calibration sequence")
+      ->default_val("0");
+  sub->add_option("--tracker-lag-range-ms", opts->lag_range_ms, "half width of the lag search with 'auto' (ms)")
+      ->default_val(1000.0)
+      ->check(CLI::PositiveNumber);
   sub->add_option("--objective", opts->objective,
                   "least-squares criterion: distance of every dot to its wire, or PLUS's middle-wire points")
       ->check(CLI::IsMember({"distance-to-wires", "middle-wire"}))

@@ -116,6 +116,31 @@ std::vector<std::string> wireNames(const io::PhantomDefinition& phantom) {
 
 ProbeCalibrationRun calibrateProbe(const io::DeviceSetConfiguration& config, const TrackedSequence& calibration,
                                    const TrackedSequence& validation, const SpatialCalibrationOptions& options) {
+  return calibrateProbe(config, calibration, validation, options, TrackerLagOptions{});
+}
+
+namespace {
+
+std::vector<double> frameTimes(const TrackedSequence& sequence) {
+  std::vector<double> t;
+  t.reserve(sequence.frames.size());
+  for (const auto& f : sequence.frames) t.push_back(f.timestamp);
+  return t;
+}
+
+// The segmented frames paired with the pose at (video time + lag); as they
+// are when there is no lag to apply.
+std::vector<CalibrationFrame> shifted(const SequenceSegmentation& seg, const TrackedSequence& sequence, double lag_s) {
+  if (lag_s == 0.0) return seg.frames;
+  return pairWithTrackerLag(seg.frames, frameTimes(sequence),
+                            extractFramePoses(sequence.frames, "ProbeToReference").poses, lag_s);
+}
+
+}  // namespace
+
+ProbeCalibrationRun calibrateProbe(const io::DeviceSetConfiguration& config, const TrackedSequence& calibration,
+                                   const TrackedSequence& validation, const SpatialCalibrationOptions& options,
+                                   const TrackerLagOptions& lag) {
   const auto start = std::chrono::steady_clock::now();
   const auto& phantom = config.requirePhantom();
   const auto patterns = nwireGeometry(phantom);
@@ -125,21 +150,28 @@ ProbeCalibrationRun calibrateProbe(const io::DeviceSetConfiguration& config, con
   ProbeCalibrationRun run;
   run.calibration = segmentCalibrationSequence(calibration, phantom, seg_options);
   run.validation = segmentCalibrationSequence(validation, phantom, seg_options);
-  run.result = calibrateSpatial(run.calibration.frames, patterns, reference_T_phantom, options);
+  run.tracker_lag = estimateTrackerLag(run.calibration.frames, frameTimes(calibration),
+                                       extractFramePoses(calibration.frames, "ProbeToReference").poses, patterns,
+                                       reference_T_phantom, options, lag);
+  const auto calibration_frames = shifted(run.calibration, calibration, run.tracker_lag.lag_s);
+  const auto validation_frames = shifted(run.validation, validation, run.tracker_lag.lag_s);
+  run.calibration_frames_paired = calibration_frames.size();
+  run.validation_frames_paired = validation_frames.size();
+  run.result = calibrateSpatial(calibration_frames, patterns, reference_T_phantom, options);
   // The calibration report again with the wire names (on the frames used).
   std::vector<CalibrationFrame> used;
-  for (const auto& f : run.calibration.frames) {
+  for (const auto& f : calibration_frames) {
     if (!std::binary_search(run.result.rejected_frames.begin(), run.result.rejected_frames.end(), f.frame_index)) {
       used.push_back(f);
     }
   }
   run.result.calibration =
       evaluateSpatialCalibration(run.result.probe_T_image, used, patterns, reference_T_phantom, wireNames(phantom));
-  if (run.validation.frames.empty()) {
+  if (validation_frames.empty()) {
     throw ComputationError("no validation frame could be segmented with a valid probe pose (" +
                            std::to_string(run.validation.total_frames) + " frames)");
   }
-  run.validation_errors = evaluateSpatialCalibration(run.result.probe_T_image, run.validation.frames, patterns,
+  run.validation_errors = evaluateSpatialCalibration(run.result.probe_T_image, validation_frames, patterns,
                                                      reference_T_phantom, wireNames(phantom));
   run.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return run;

@@ -11,6 +11,7 @@
 #include "mrsns/io/device_set.h"
 #include "mrsns/ultrasound/nwire_segmentation.h"
 #include "mrsns/ultrasound/spatial_calibration.h"
+#include "mrsns/ultrasound/tracker_lag.h"
 
 namespace mrsns::ultrasound {
 
@@ -56,6 +57,9 @@ struct ProbeCalibrationRun {
   SequenceSegmentation calibration;
   SequenceSegmentation validation;
   CalibrationErrorReport validation_errors;
+  /// The lag applied to both sequences (estimated, given, or 0).
+  TrackerLagEstimate tracker_lag;
+  std::size_t calibration_frames_paired = 0, validation_frames_paired = 0;  ///< after the lag shift
   double seconds = 0.0;
 };
 
@@ -63,5 +67,11 @@ struct ProbeCalibrationRun {
 /// phantom, segmentation parameters and PhantomToReference of `config`.
 ProbeCalibrationRun calibrateProbe(const io::DeviceSetConfiguration& config, const TrackedSequence& calibration,
                                    const TrackedSequence& validation, const SpatialCalibrationOptions& options = {});
+
+/// The same with a tracker lag: given, or estimated from the calibration
+/// sequence (estimateTrackerLag), then applied to both sequences.
+ProbeCalibrationRun calibrateProbe(const io::DeviceSetConfiguration& config, const TrackedSequence& calibration,
+                                   const TrackedSequence& validation, const SpatialCalibrationOptions& options,
+                                   const TrackerLagOptions& lag);
 
 }  // namespace mrsns::ultrasound
