@@ -22,6 +22,9 @@ TEST(UrScript, GoldenLines) {
   T.translation() << 400, -100, 250;
   EXPECT_EQ(movel(T, 1200, 250), "movel(p[0.4, -0.1, 0.25, 0, 0, 0], a=1.2, v=0.25)");
   EXPECT_EQ(stopj(2), "stopj(2)");
+  EXPECT_EQ(protectiveStop(), "protective_stop()");
+  EXPECT_EQ(parseLine(protectiveStop()).kind, CommandKind::ProtectiveStop);
+  EXPECT_THROW((void)parseLine("protective_stop(1)"), mrsns::FormatError);
   EXPECT_EQ(stopl(500), "stopl(0.5)");
   EXPECT_EQ(movej(q, 1.4, 1.05), "movej([0.5, -1.25, 1.5, -1.5, -1.5, 0], a=1.4, v=1.05)");
 }

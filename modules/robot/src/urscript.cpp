@@ -183,6 +183,10 @@ std::string stopl(double deceleration_mm_s2) {
   return "stopl(" + num(deceleration_mm_s2 / kMmPerM) + ")";
 }
 
+std::string protectiveStop() {
+  return "protective_stop()";
+}
+
 std::array<double, 6> toUrPose(const Eigen::Isometry3d& T) {
   const Eigen::Vector3d rv = so3Log(T.linear());
   return {T.translation().x() / kMmPerM,
@@ -243,9 +247,12 @@ Command parseLine(std::string_view raw) {
     const auto b = bind(line, std::move(args), {"a", "aRot"}, 1);
     c.kind = CommandKind::StopL;
     c.acceleration = scalar(line, b, "a", 0) * kMmPerM;
+  } else if (name == "protective_stop") {
+    (void)bind(line, std::move(args), {}, 0);
+    c.kind = CommandKind::ProtectiveStop;
   } else {
     bad(line, "unsupported function '" + std::string(name) +
-                  "' (the MR-SNS UR simulator accepts servoj, speedl, movel, movej, stopj, stopl)");
+                  "' (the MR-SNS UR simulator accepts servoj, speedl, movel, movej, stopj, stopl, protective_stop)");
   }
   if (c.acceleration < 0 || c.speed < 0 || c.time_s < 0) bad(line, "accelerations, speeds and times must be >= 0");
   return c;

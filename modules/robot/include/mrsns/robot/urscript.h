@@ -32,11 +32,14 @@ std::string stopj(double deceleration_rad_s2);
 /// "stopl(a)": decelerate the tool at a mm/s^2.
 std::string stopl(double deceleration_mm_s2);
 
+/// "protective_stop()": the controller raises a protective stop (URScript, PolyScope 5); unlock via dashboard.
+std::string protectiveStop();
+
 /// UR pose vector [x, y, z (m), rotation vector (rad)] <-> isometry in mm.
 std::array<double, 6> toUrPose(const Eigen::Isometry3d& base_T_tcp);
 Eigen::Isometry3d fromUrPose(const std::array<double, 6>& pose);
 
-enum class CommandKind { ServoJ, SpeedL, MoveL, MoveJ, StopJ, StopL };
+enum class CommandKind { ServoJ, SpeedL, MoveL, MoveJ, StopJ, StopL, ProtectiveStop };
 
 /// One parsed command in workstation units (mm, rad, s).
 struct Command {
