@@ -43,6 +43,7 @@ struct UrRtdeArm::Impl {
   bool rtde_ok = false;
   bool script_ok = false;
   bool latched = false;
+  bool have_data = false;
 
   std::mutex script_mutex;
   std::atomic<std::uint64_t> packages{0}, sent{0}, refused{0};
@@ -119,6 +120,7 @@ struct UrRtdeArm::Impl {
     std::lock_guard lock(state_mutex);
     latest = s;
     last_rx = Clock::now();
+    have_data = true;
   }
 
   void readLoop() {
@@ -146,6 +148,7 @@ struct UrRtdeArm::Impl {
   }
 
   bool connectedNow() const {
+    if (!have_data) return false;  // no state yet: nothing the loop may act on
     const double age = std::chrono::duration<double>(Clock::now() - last_rx).count();
     return rtde_ok && script_ok && age <= options.stale_after_periods * period();
   }
