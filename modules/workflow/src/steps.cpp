@@ -1,7 +1,12 @@
 // The step table and the dispatch of runStep().
 #include "mrsns/workflow/steps.h"
 
+#include <chrono>
+#include <cmath>
+
 #include "mrsns/core/error.h"
+#include "mrsns/core/log.h"
+#include "step_internal.h"
 
 namespace mrsns::workflow {
 
@@ -12,18 +17,160 @@ std::vector<StepInfo> listSteps() {
       {"us-spatial-calibration", "Ultrasound spatial calibration", "preparation",
        "N-wire calibration of ImageToProbe on a tracked recording (PLUS fCal data by default)"},
       {"us-temporal-calibration", "Ultrasound temporal calibration", "preparation",
-       "Tracker lag behind the video from a probe moving over a line target"},
-      {"robot-calibration", "Robot calibration", "preparation", "RobotBase to tracker (hand-eye) calibration"},
+       "Tracker lag behind the video, from the same N-wire recording (reprojection error over lags)"},
+      {"robot-calibration", "Robot calibration", "preparation",
+       "RobotBase to tracker calibration from flange-marker positions"},
       {"registration", "Patient registration", "preparation",
        "Landmarks then surface (ICP) registration of the CT models to the patient"},
       {"hmd-calibration", "HMD calibration", "preparation",
-       "Hologram to tracker calibration of the head-mounted display"},
+       "Hologram (HoloLens) to tracker calibration with the calibration cube (Eq. 2-3)"},
       {"navigation", "Navigation", "function",
-       "Tracking -> repository -> deformation -> supervisor -> hologram stream, recorded"},
+       "Tracking -> repository -> deformation -> supervisor -> hologram stream, every stream recorded"},
       {"robot-placement", "Robot-assisted placement", "function",
-       "Robot-guided pedicle screw placement on the planned paths"},
+       "Robot-guided pedicle screw placement on the planned paths: entry, target and angle errors"},
   };
 }
 
-std::filesystem::path sampleSessionPath();
+StepResult runStep(Session& session, const std::string& step, const nlohmann::json& params,
+                   const StepContext& context) {
+  using Runner = StepResult (*)(Session&, const nlohmann::json&, const StepContext&);
+  static const std::pair<const char*, Runner> kRunners[] = {
+      {"connect-devices", detail::runConnectDevices},
+      {"us-spatial-calibration", detail::runUsSpatialCalibration},
+      {"us-temporal-calibration", detail::runUsTemporalCalibration},
+      {"robot-calibration", detail::runRobotCalibration},
+      {"registration", detail::runRegistration},
+      {"hmd-calibration", detail::runHmdCalibration},
+      {"navigation", detail::runNavigation},
+      {"robot-placement", detail::runRobotPlacement},
+  };
+  Runner runner = nullptr;
+  std::string names;
+  for (const auto& [name, fn] : kRunners) {
+    if (step == name) runner = fn;
+    names += names.empty() ? name : std::string(", ") + name;
+  }
+  if (runner == nullptr) {
+    throw InvalidArgumentError("unknown workflow step '" + step + "': use one of " + names);
+  }
+  if (!params.is_null() && !params.is_object()) {
+    throw InvalidArgumentError("parameters of step '" + step + "' must be a JSON object of name: value");
+  }
+  const nlohmann::json p = params.is_null() ? nlohmann::json::object() : params;
+  const auto start = std::chrono::steady_clock::now();
+  StepResult result;
+  context.report(0.0, "starting " + step);
+  try {
+    result = runner(session, p, context);
+  } catch (const detail::Cancelled&) {
+    result = StepResult{};
+    result.cancelled = true;
+    result.summary = step + " cancelled";
+  }
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  if (!result.cancelled) context.report(1.0, result.summary);
+  nlohmann::json record = {{"status", result.cancelled ? "cancelled" : (result.ok ? "ok" : "failed")},
+                           {"summary", result.summary},
+                           {"figures", result.figures},
+                           {"outputs", result.outputs},
+                           {"params", p},
+                           {"seconds", seconds}};
+  session.recordStep(step, record);
+  session.log(result.ok ? "info" : "warn", step + ": " + result.summary);
+  logger()->info("step {}: {}", step, result.summary);
+  return result;
+}
+
+namespace detail {
+
+Params::Params(const std::string& step, const Json& params, std::initializer_list<const char*> known)
+    : step_(step), params_(params) {
+  std::set<std::string> names(known.begin(), known.end());
+  for (const auto& [key, value] : params_.items()) {
+    if (names.count(key) == 0) {
+      std::string list;
+      for (const auto& n : names) list += list.empty() ? n : ", " + n;
+      throw InvalidArgumentError("step '" + step + "' has no parameter '" + key + "'" +
+                                 (list.empty() ? std::string(" (it takes none)") : "; it takes: " + list));
+    }
+  }
+}
+
+void Params::wrongType(const std::string& key, const char* expected) const {
+  throw InvalidArgumentError("step '" + step_ + "' parameter '" + key + "' = " + params_.at(key).dump() + " is not " +
+                             expected);
+}
+
+double Params::number(const std::string& key, double fallback) const {
+  if (!params_.contains(key)) return fallback;
+  const auto& v = params_.at(key);
+  if (!v.is_number() || !std::isfinite(v.get<double>())) wrongType(key, "a finite number");
+  return v.get<double>();
+}
+
+int Params::integer(const std::string& key, int fallback) const {
+  if (!params_.contains(key)) return fallback;
+  const auto& v = params_.at(key);
+  if (!v.is_number_integer()) wrongType(key, "an integer");
+  return v.get<int>();
+}
+
+bool Params::boolean(const std::string& key, bool fallback) const {
+  if (!params_.contains(key)) return fallback;
+  const auto& v = params_.at(key);
+  if (!v.is_boolean()) wrongType(key, "true or false");
+  return v.get<bool>();
+}
+
+std::string Params::text(const std::string& key, const std::string& fallback) const {
+  if (!params_.contains(key)) return fallback;
+  const auto& v = params_.at(key);
+  if (!v.is_string()) wrongType(key, "a string");
+  return v.get<std::string>();
+}
+
+Json matrixJson(const Eigen::Matrix4d& m) {
+  Json out = Json::array();
+  for (int r = 0; r < 4; ++r) {
+    for (int c = 0; c < 4; ++c) out.push_back(m(r, c));
+  }
+  return out;
+}
+
+Eigen::Matrix4d matrixFromJson(const Json& j, const std::string& what) {
+  if (!j.is_array() || j.size() != 16) {
+    throw FormatError(what + " must be 16 numbers (a row-major 4x4 matrix)");
+  }
+  Eigen::Matrix4d m;
+  for (int i = 0; i < 16; ++i) {
+    if (!j[static_cast<std::size_t>(i)].is_number()) throw FormatError(what + " holds a value that is not a number");
+    m(i / 4, i % 4) = j[static_cast<std::size_t>(i)].get<double>();
+  }
+  return m;
+}
+
+bool findRecordedTransform(const Session& session, const std::string& name, Eigen::Matrix4d& out) {
+  for (const auto& [step, entry] : session.state().at("steps").items()) {
+    if (!entry.is_object() || !entry.contains("figures")) continue;
+    const auto& figures = entry.at("figures");
+    if (figures.is_object() && figures.contains("transforms") && figures["transforms"].contains(name)) {
+      out = matrixFromJson(figures["transforms"][name], "session.json steps." + step + ".transforms." + name);
+      return true;
+    }
+  }
+  return false;
+}
+
+Json statsJson(const std::vector<double>& values) {
+  double sum = 0.0, sum2 = 0.0, mx = 0.0;
+  for (double v : values) {
+    sum += v;
+    sum2 += v * v;
+    mx = std::max(mx, std::abs(v));
+  }
+  const double n = values.empty() ? 1.0 : static_cast<double>(values.size());
+  return Json{{"mean", sum / n}, {"rms", std::sqrt(sum2 / n)}, {"max", mx}, {"count", values.size()}};
+}
+
+}  // namespace detail
 }  // namespace mrsns::workflow

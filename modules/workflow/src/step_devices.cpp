@@ -1,0 +1,219 @@
+// connect-devices and navigation steps: run the tracker (and the loop) for a
+// while, report what arrived.
+#include <chrono>
+#include <sstream>
+#include <thread>
+
+#include "mrsns/deformation/deformation_trial.h"
+#include "mrsns/io/sequence_file.h"
+#include "mrsns/workflow/navigation.h"
+#include "step_internal.h"
+
+namespace mrsns::workflow::detail {
+
+namespace {
+
+DeviceOptions deviceOptions(const Params& p) {
+  DeviceOptions d;
+  d.source = p.text("source", d.source);
+  d.host = p.text("host", d.host);
+  d.port = p.integer("port", d.port);
+  d.file = p.text("file", "");
+  d.playback_speed = p.number("playback_speed", d.playback_speed);
+  d.seed = static_cast<std::uint64_t>(p.integer("seed", 1));
+  d.rate_hz = p.number("rate_hz", d.rate_hz);
+  d.noise_mm = p.number("noise_mm", d.noise_mm);
+  d.dropout_tool = p.text("dropout_tool", d.dropout_tool);
+  d.dropout_start_s = p.number("dropout_start_s", d.dropout_start_s);
+  d.dropout_duration_s = p.number("dropout_duration_s", d.dropout_duration_s);
+  return d;
+}
+
+#define MRSNS_DEVICE_KEYS                                                                            \
+  "source", "host", "port", "file", "playback_speed", "seed", "rate_hz", "noise_mm", "dropout_tool", \
+      "dropout_start_s", "dropout_duration_s"
+
+// Sleeps `seconds` in small slices, reporting progress and honouring cancel.
+void waitWhile(double seconds, double from, double to, const std::string& message, const StepContext& context) {
+  const auto start = std::chrono::steady_clock::now();
+  while (true) {
+    const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    if (t >= seconds) break;
+    context.report(from + (to - from) * t / seconds, message);
+    if (context.cancelled()) throw Cancelled{};
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+}
+
+}  // namespace
+
+StepResult runConnectDevices(Session& session, const Json& params, const StepContext& context) {
+  const Params p("connect-devices", params, {MRSNS_DEVICE_KEYS, "duration_s"});
+  const DeviceOptions devices = deviceOptions(p);
+  const double duration = p.number("duration_s", 1.0);
+  if (!(duration > 0.0 && duration <= 600.0)) {
+    throw InvalidArgumentError("connect-devices: duration_s must be in (0, 600] s");
+  }
+  auto repository = std::make_shared<TransformRepository>();
+  auto source = makeTrackingSource(devices, repository);
+  std::mutex mutex;
+  std::map<std::string, std::pair<std::uint64_t, std::uint64_t>> seen;  // name -> (ok, not ok)
+  std::vector<double> stamps;
+  source->setUpdateCallback([&](std::span<const tracking::ToolUpdate> updates) {
+    std::lock_guard lock(mutex);
+    for (const auto& u : updates) {
+      auto& c = seen[u.name];
+      (u.status == TransformStatus::Ok ? c.first : c.second)++;
+    }
+    if (!updates.empty()) stamps.push_back(updates.front().timestamp);
+  });
+  source->start();
+  try {
+    waitWhile(duration, 0.05, 0.95, "listening to the " + devices.source + " tracker", context);
+  } catch (...) {
+    source->stop();
+    throw;
+  }
+  source->stop();
+  const auto status = source->status();
+
+  std::lock_guard lock(mutex);
+  Json tools = Json::object();
+  for (const auto& [name, counts] : seen) tools[name] = {{"ok", counts.first}, {"not_ok", counts.second}};
+  std::vector<double> intervals;
+  for (std::size_t i = 1; i < stamps.size(); ++i) intervals.push_back(stamps[i] - stamps[i - 1]);
+  double mean = 0.0, jitter = 0.0;
+  for (double d : intervals) mean += d;
+  if (!intervals.empty()) mean /= static_cast<double>(intervals.size());
+  for (double d : intervals) jitter += (d - mean) * (d - mean);
+  if (intervals.size() > 1) jitter = std::sqrt(jitter / static_cast<double>(intervals.size() - 1));
+
+  StepResult result;
+  result.ok = !seen.empty();
+  result.figures = {{"source", devices.source},
+                    {"state", std::string(tracking::toString(status.state))},
+                    {"message", status.message},
+                    {"batches", stamps.size()},
+                    {"tools", tools},
+                    {"rate_hz", mean > 0.0 ? 1.0 / mean : 0.0},
+                    {"interval_jitter_ms", jitter * 1e3}};
+  std::ostringstream s;
+  s.precision(3);
+  if (result.ok) {
+    s << seen.size() << " tools from the " << devices.source << " tracker at " << (mean > 0.0 ? 1.0 / mean : 0.0)
+      << " Hz";
+  } else {
+    s << "no data from the " << devices.source << " tracker in " << duration << " s ("
+      << tracking::toString(status.state) << (status.message.empty() ? "" : ": " + status.message)
+      << "): check that it is running and reachable";
+  }
+  result.summary = s.str();
+  static_cast<void>(session);
+  return result;
+}
+
+StepResult runNavigation(Session& session, const Json& params, const StepContext& context) {
+  const Params p(
+      "navigation", params,
+      {MRSNS_DEVICE_KEYS, "duration_s", "record", "deformation_cases", "deformation_frames", "stream_holograms"});
+  NavigationOptions options;
+  options.devices = deviceOptions(p);
+  const double duration = p.number("duration_s", 3.0);
+  if (!(duration > 0.0 && duration <= 3600.0)) {
+    throw InvalidArgumentError("navigation: duration_s must be in (0, 3600] s");
+  }
+  std::vector<std::string> outputs;
+  if (p.boolean("record", true)) {
+    std::filesystem::create_directories(session.resolve("navigation"));
+    int n = 1;
+    std::string name;
+    do {
+      name = "navigation/tracking_" + std::to_string(n++) + ".mhd";
+    } while (std::filesystem::exists(session.resolve(name)));
+    options.recording = session.resolve(name);
+    outputs.push_back(name);
+    outputs.push_back(name.substr(0, name.size() - 4) + ".raw");
+  }
+  options.stream_holograms = p.boolean("stream_holograms", false);
+  // The supervisor needs the patient and the probe; a playback or PlusServer
+  // source may name its tools differently, so only the simulator is supervised
+  // by default.
+  if (options.devices.source != "simulated") options.required_transforms.clear();
+
+  NavigationLoop loop(options);
+  bool robot_stopped = false;
+  std::string stop_reason;
+  loop.setStopHandler([&](const std::string& reason) {
+    robot_stopped = true;
+    stop_reason = reason;
+  });
+  loop.start();
+  try {
+    waitWhile(duration, 0.02, 0.6, "navigating", context);
+  } catch (...) {
+    loop.stop();
+    throw;
+  }
+  loop.stop();
+  const auto st = loop.status();
+  Json events = Json::array();
+  for (const auto& e : loop.events()) {
+    events.push_back({{"time_s", e.time_s}, {"kind", e.kind}, {"message", e.message}});
+    if (e.kind == "safety-stop") session.log("warn", "navigation: " + e.message);
+  }
+  checkCancel(context);
+
+  // Deformation tracking (paper 001 §III.A): the posterior shape model on the
+  // simulated vessel protocol, the figures of Table I.
+  Json deformation = Json::object();
+  const int cases = p.integer("deformation_cases", 2);
+  if (cases > 0) {
+    context.report(0.65, "deformation tracking (posterior shape model)");
+    deformation::DeformationTrialOptions trial;
+    trial.cases = cases;
+    trial.frames = p.integer("deformation_frames", 40);
+    trial.seed = options.devices.seed;
+    const auto r = deformation::runDeformationTrial(trial);
+    deformation = {{"cases", cases},
+                   {"posterior_sd_mean_mm", r.posterior_sd_mean_mm.mean},
+                   {"posterior_sd_max_mm", r.posterior_sd_max_mm.mean},
+                   {"posterior_fp_mm", r.posterior_fp_mm.mean},
+                   {"prior_sd_mean_mm", r.prior_sd_mean_mm.mean},
+                   {"prior_sd_max_mm", r.prior_sd_max_mm.mean},
+                   {"prior_fp_mm", r.prior_fp_mm.mean},
+                   {"update_ms_p50", r.update_ms_p50},
+                   {"update_ms_p99", r.update_ms_p99},
+                   {"model_modes", r.model_modes},
+                   {"model_points", r.model_points},
+                   // Paper 001 Table I (phantom): posterior E^SD and E^FP.
+                   {"paper_posterior_sd_mean_mm", 1.01},
+                   {"paper_posterior_fp_mm", 1.12}};
+  }
+  std::size_t recorded_frames = 0;
+  if (!options.recording.empty()) {
+    recorded_frames = io::readSequenceHeader(options.recording).frames.size();
+  }
+
+  StepResult result;
+  result.ok = st.batches > 0 && st.recorder_error.empty();
+  result.outputs = outputs;
+  result.figures = {{"batches", st.batches},
+                    {"frames_recorded", st.frames_recorded},
+                    {"frames_in_file", recorded_frames},
+                    {"max_batch_gap_ms", st.max_batch_gap_s * 1e3},
+                    {"mean_loop_latency_ms", st.mean_loop_latency_ms},
+                    {"robot_stopped", robot_stopped},
+                    {"stop_reason", stop_reason},
+                    {"events", events},
+                    {"deformation", deformation}};
+  std::ostringstream s;
+  s.precision(3);
+  s << st.batches << " tracking batches, " << recorded_frames << " recorded";
+  if (robot_stopped) s << "; robot stopped (" << stop_reason << ")";
+  if (!deformation.empty()) s << "; posterior E^SD " << deformation["posterior_sd_mean_mm"].get<double>() << " mm";
+  if (!st.recorder_error.empty()) s << "; recording failed: " << st.recorder_error;
+  result.summary = s.str();
+  return result;
+}
+
+}  // namespace mrsns::workflow::detail

@@ -1,0 +1,56 @@
+#pragma once
+// Shared pieces of the step implementations: parameter reading with
+// unknown-key detection, cancellation, JSON helpers.
+#include <Eigen/Geometry>
+#include <initializer_list>
+#include <set>
+#include <string>
+
+#include "mrsns/core/error.h"
+#include "mrsns/workflow/steps.h"
+
+namespace mrsns::workflow::detail {
+
+using Json = nlohmann::json;
+
+/// Reads a step's parameters; every key must be one the step knows, so a
+/// misspelt parameter is an error rather than silently ignored.
+class Params {
+ public:
+  Params(const std::string& step, const Json& params, std::initializer_list<const char*> known);
+  [[nodiscard]] double number(const std::string& key, double fallback) const;
+  [[nodiscard]] int integer(const std::string& key, int fallback) const;
+  [[nodiscard]] bool boolean(const std::string& key, bool fallback) const;
+  [[nodiscard]] std::string text(const std::string& key, const std::string& fallback) const;
+  [[nodiscard]] bool has(const std::string& key) const { return params_.contains(key); }
+
+ private:
+  [[noreturn]] void wrongType(const std::string& key, const char* expected) const;
+  std::string step_;
+  Json params_;
+};
+
+/// Thrown inside a step when the user cancelled; runStep turns it into ok=false.
+struct Cancelled {};
+
+inline void checkCancel(const StepContext& context) {
+  if (context.cancelled()) throw Cancelled{};
+}
+
+Json matrixJson(const Eigen::Matrix4d& m);
+Eigen::Matrix4d matrixFromJson(const Json& j, const std::string& what);
+/// The transform `name` ("ImageToProbe") recorded by an earlier step, if any.
+bool findRecordedTransform(const Session& session, const std::string& name, Eigen::Matrix4d& out);
+/// RMS, mean, max of values.
+Json statsJson(const std::vector<double>& values);
+
+StepResult runConnectDevices(Session& session, const Json& params, const StepContext& context);
+StepResult runUsSpatialCalibration(Session& session, const Json& params, const StepContext& context);
+StepResult runUsTemporalCalibration(Session& session, const Json& params, const StepContext& context);
+StepResult runRobotCalibration(Session& session, const Json& params, const StepContext& context);
+StepResult runRegistration(Session& session, const Json& params, const StepContext& context);
+StepResult runHmdCalibration(Session& session, const Json& params, const StepContext& context);
+StepResult runNavigation(Session& session, const Json& params, const StepContext& context);
+StepResult runRobotPlacement(Session& session, const Json& params, const StepContext& context);
+
+}  // namespace mrsns::workflow::detail

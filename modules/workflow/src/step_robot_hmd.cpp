@@ -1,0 +1,203 @@
+// Robot calibration, HMD calibration and robot-assisted placement steps,
+// with the robot and the HMD simulated (seeded), through the same chain of
+// transforms the real devices use.
+#include <sstream>
+
+#include "mrsns/registration/paired_point.h"
+#include "simulation.h"
+#include "step_internal.h"
+#ifdef MRSNS_WITH_HMD
+#include "mrsns/hmd/cube_calibration.h"
+#endif
+
+namespace mrsns::workflow::detail {
+
+namespace {
+
+Eigen::Isometry3d isometry(const Eigen::Matrix4d& m) {
+  Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
+  t.matrix() = m;
+  return t;
+}
+
+Eigen::Isometry3d recorded(const Session& session, const std::string& step, const std::string& group,
+                           const std::string& name) {
+  const auto entry = session.step(step);
+  if (entry.is_null() || entry.value("status", "") != "ok" || !entry["figures"].contains(group) ||
+      !entry["figures"][group].contains(name)) {
+    throw InvalidArgumentError("this step needs '" + step + "' to have run successfully first (no " + name +
+                               " in the session): run it, then try again");
+  }
+  return isometry(matrixFromJson(entry["figures"][group][name], step + "." + name));
+}
+
+// The simulated tracker's patient reference marker (see devices.cpp).
+Eigen::Isometry3d trackerTPatient() {
+  Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
+  t.translation() = Eigen::Vector3d(0.0, 0.0, -1000.0);
+  return t;
+}
+
+}  // namespace
+
+StepResult runRobotCalibration(Session& /*session*/, const Json& params, const StepContext& context) {
+  const Params p("robot-calibration", params, {"seed", "poses", "tracker_noise_mm", "robot_repeatability_mm"});
+  const auto seed = static_cast<std::uint64_t>(p.integer("seed", 1));
+  const int poses = p.integer("poses", 12);
+  const double tracker_noise = p.number("tracker_noise_mm", 0.25);
+  const double robot_noise = p.number("robot_repeatability_mm", 0.1);  // UR5: +/- 0.1 mm
+  if (poses < 4)
+    throw InvalidArgumentError("robot-calibration: at least 4 poses are needed (got " + std::to_string(poses) + ")");
+  Simulation sim(seed * 104729 + 11);
+  const Eigen::Isometry3d tracker_T_base = sim.pose(0.4, Eigen::Vector3d(0.0, 400.0, -1100.0), 30.0);
+  std::vector<Eigen::Vector3d> flange_base, flange_tracker;
+  for (int i = 0; i < poses; ++i) {
+    checkCancel(context);
+    context.report(0.1 + 0.8 * i / poses, "moving the robot to pose " + std::to_string(i + 1));
+    // Poses spread over the reachable workspace above the patient.
+    const Eigen::Vector3d p_base(sim.uniform(-250, 250), sim.uniform(-500, -250), sim.uniform(100, 400));
+    flange_base.push_back(p_base);
+    flange_tracker.push_back(tracker_T_base * (p_base + sim.noise(robot_noise)) + sim.noise(tracker_noise));
+  }
+  const auto r = registration::registerPairedPoints(flange_base, flange_tracker);
+  Eigen::Isometry3d estimate = Eigen::Isometry3d::Identity();
+  estimate.linear() = r.rotation;
+  estimate.translation() = r.translation;
+  // Error where it matters: at the patient (the screw targets lie there).
+  const Eigen::Vector3d patient_base = tracker_T_base.inverse() * trackerTPatient().translation();
+  const double tre_patient = (estimate * patient_base - tracker_T_base * patient_base).norm();
+  StepResult result;
+  result.ok = true;
+  result.figures = {{"poses", poses},
+                    {"fre_rms_mm", r.fre_rms_mm},
+                    {"fre_expected_mm", registration::expectedFreRms(poses, std::hypot(tracker_noise, robot_noise))},
+                    {"tre_at_patient_mm", tre_patient},
+                    {"tre_predicted_at_patient_mm",
+                     registration::predictTreRms(flange_base, patient_base, std::hypot(tracker_noise, robot_noise))},
+                    {"noise_model", {{"tracker_rms_mm", tracker_noise}, {"robot_rms_mm", robot_noise}}},
+                    {"transforms", {{"RobotBaseToTracker", matrixJson(estimate.matrix())}}},
+                    {"simulation_truth", {{"RobotBaseToTracker", matrixJson(tracker_T_base.matrix())}}}};
+  std::ostringstream s;
+  s.precision(3);
+  s << "RobotBaseToTracker from " << poses << " poses: FRE " << r.fre_rms_mm << " mm, error at the patient "
+    << tre_patient << " mm";
+  result.summary = s.str();
+  return result;
+}
+
+StepResult runHmdCalibration(Session& /*session*/, const Json& params, const StepContext& context) {
+  const Params p("hmd-calibration", params, {"seed", "hologram_noise_mm", "tracker_noise_mm", "cube_poses"});
+  const auto seed = static_cast<std::uint64_t>(p.integer("seed", 1));
+  const double holo_noise = p.number("hologram_noise_mm", 1.5);
+  const double tracker_noise = p.number("tracker_noise_mm", 0.25);
+  const int cube_poses = p.integer("cube_poses", 3);
+  if (cube_poses < 1) throw InvalidArgumentError("hmd-calibration: cube_poses must be >= 1");
+  Simulation sim(seed * 15485863 + 5);
+  const Eigen::Isometry3d tracker_T_hololens = sim.pose(3.0, Eigen::Vector3d(0.0, -300.0, -600.0), 50.0);
+  // The 8 vertices of the 60 mm calibration cube, aligned by the user with
+  // their virtual counterparts (paper 001 Eq. 2-3) at several cube poses.
+  std::vector<Eigen::Vector3d> tracker_points, hololens_points;
+  for (int k = 0; k < cube_poses; ++k) {
+    checkCancel(context);
+    context.report(0.1 + 0.8 * k / cube_poses, "aligning the virtual cube, pose " + std::to_string(k + 1));
+    const Eigen::Isometry3d tracker_T_cube = sim.pose(0.6, trackerTPatient().translation(), 80.0);
+    for (int v = 0; v < 8; ++v) {
+      const Eigen::Vector3d vertex((v & 1) ? 30.0 : -30.0, (v & 2) ? 30.0 : -30.0, (v & 4) ? 30.0 : -30.0);
+      const Eigen::Vector3d p_tracker = tracker_T_cube * vertex;
+      tracker_points.push_back(p_tracker + sim.noise(tracker_noise));
+      hololens_points.push_back(tracker_T_hololens.inverse() * p_tracker + sim.noise(holo_noise));
+    }
+  }
+  Eigen::Isometry3d estimate = Eigen::Isometry3d::Identity();
+  Json figures;
+#ifdef MRSNS_WITH_HMD
+  const auto r = hmd::calibrateCube(tracker_points, hololens_points);
+  estimate = r.tracker_T_hololens;
+  figures = {{"method", "hmd::calibrateCube (Eq. 2-3)"},
+             {"rigid_rms_mm", r.rigid_rms_mm},
+             {"affine_rms_mm", r.affine_rms_mm},
+             {"dlt_condition_number", r.dlt_condition_number},
+             {"affine_rigidity_deviation", r.affine_rigidity_deviation}};
+#else
+  const auto r = registration::registerPairedPoints(hololens_points, tracker_points);
+  estimate.linear() = r.rotation;
+  estimate.translation() = r.translation;
+  figures = {{"method", "paired points"}, {"rigid_rms_mm", r.fre_rms_mm}};
+#endif
+  const Eigen::Vector3d patient_hololens = tracker_T_hololens.inverse() * trackerTPatient().translation();
+  const double tre = (estimate * patient_hololens - tracker_T_hololens * patient_hololens).norm();
+  figures["points"] = tracker_points.size();
+  figures["tre_at_patient_mm"] = tre;
+  figures["noise_model"] = {{"hologram_alignment_rms_mm", holo_noise}, {"tracker_rms_mm", tracker_noise}};
+  figures["transforms"] = {{"HoloLensToTracker", matrixJson(estimate.matrix())}};
+  figures["simulation_truth"] = {{"HoloLensToTracker", matrixJson(tracker_T_hololens.matrix())}};
+  StepResult result;
+  result.ok = true;
+  result.figures = figures;
+  std::ostringstream s;
+  s.precision(3);
+  s << "HoloLensToTracker from " << tracker_points.size() << " cube points: RMS "
+    << figures["rigid_rms_mm"].get<double>() << " mm, hologram error at the patient " << tre << " mm";
+  result.summary = s.str();
+  return result;
+}
+
+StepResult runRobotPlacement(Session& session, const Json& params, const StepContext& context) {
+  const Params p("robot-placement", params, {"seed", "robot_accuracy_mm", "tracker_noise_mm"});
+  const auto seed = static_cast<std::uint64_t>(p.integer("seed", 1));
+  const double robot_accuracy = p.number("robot_accuracy_mm", 0.3);
+  const double tracker_noise = p.number("tracker_noise_mm", 0.25);
+  const Eigen::Isometry3d est_patient_T_ct = recorded(session, "registration", "transforms", "CTToPatient");
+  const Eigen::Isometry3d true_patient_T_ct = recorded(session, "registration", "simulation_truth", "CTToPatient");
+  const Eigen::Isometry3d est_tracker_T_base =
+      recorded(session, "robot-calibration", "transforms", "RobotBaseToTracker");
+  const Eigen::Isometry3d true_tracker_T_base =
+      recorded(session, "robot-calibration", "simulation_truth", "RobotBaseToTracker");
+  const auto paths = session.step("registration")["figures"]["paths"];
+  Simulation sim(seed * 32452843 + 17);
+  std::vector<double> entry_errors, target_errors, angle_errors;
+  Json per_path = Json::array();
+  std::size_t i = 0;
+  for (const auto& path : paths) {
+    checkCancel(context);
+    context.report(0.1 + 0.8 * static_cast<double>(i++) / static_cast<double>(paths.size()),
+                   "placing " + path["name"].get<std::string>());
+    const Eigen::Vector3d entry(path["entry_ct"][0], path["entry_ct"][1], path["entry_ct"][2]);
+    const Eigen::Vector3d target(path["target_ct"][0], path["target_ct"][1], path["target_ct"][2]);
+    // Chain Eq. 4: CT -> patient (registration) -> tracker (live patient
+    // marker, noisy) -> robot base (calibration); the robot goes where the
+    // estimated chain says, the truth places the guide.
+    Eigen::Isometry3d tracker_T_patient_seen = trackerTPatient();
+    tracker_T_patient_seen.translation() += sim.noise(tracker_noise);
+    const Eigen::Isometry3d base_T_ct_est = est_tracker_T_base.inverse() * tracker_T_patient_seen * est_patient_T_ct;
+    const Eigen::Isometry3d ct_T_base_true =
+        (true_tracker_T_base.inverse() * trackerTPatient() * true_patient_T_ct).inverse();
+    const Eigen::Vector3d placed_entry = ct_T_base_true * (base_T_ct_est * entry + sim.noise(robot_accuracy));
+    const Eigen::Vector3d placed_target = ct_T_base_true * (base_T_ct_est * target + sim.noise(robot_accuracy));
+    entry_errors.push_back((placed_entry - entry).norm());
+    target_errors.push_back((placed_target - target).norm());
+    const double cosine = (placed_target - placed_entry).normalized().dot((target - entry).normalized());
+    angle_errors.push_back(std::acos(std::clamp(cosine, -1.0, 1.0)) * 180.0 / M_PI);
+    per_path.push_back({{"name", path["name"]},
+                        {"entry_error_mm", entry_errors.back()},
+                        {"target_error_mm", target_errors.back()},
+                        {"angle_error_deg", angle_errors.back()}});
+  }
+  StepResult result;
+  result.ok = !paths.empty();
+  result.figures = {{"paths", per_path},
+                    {"entry_error_mm", statsJson(entry_errors)},
+                    {"target_error_mm", statsJson(target_errors)},
+                    {"angle_error_deg", statsJson(angle_errors)},
+                    {"noise_model", {{"robot_accuracy_rms_mm", robot_accuracy}, {"tracker_rms_mm", tracker_noise}}},
+                    {"robot", "simulated chain (robot module placement trial not linked)"}};
+  std::ostringstream s;
+  s.precision(3);
+  s << paths.size() << " screws placed: entry " << result.figures["entry_error_mm"]["mean"].get<double>()
+    << " mm, target " << result.figures["target_error_mm"]["mean"].get<double>() << " mm, angle "
+    << result.figures["angle_error_deg"]["mean"].get<double>() << " deg (mean)";
+  result.summary = s.str();
+  return result;
+}
+
+}  // namespace mrsns::workflow::detail

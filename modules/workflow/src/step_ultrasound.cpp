@@ -1,0 +1,137 @@
+// Ultrasound spatial (N-wire) and temporal (tracker lag) calibration steps,
+// on the PLUS fCal recording of the shared data set unless told otherwise.
+#include <sstream>
+
+#include "mrsns/core/data_dir.h"
+#include "mrsns/io/device_set.h"
+#include "mrsns/io/sequence_file.h"
+#include "mrsns/io/transform_io.h"
+#include "mrsns/ultrasound/probe_calibration.h"
+#include "step_internal.h"
+
+namespace mrsns::workflow::detail {
+
+namespace {
+
+constexpr const char* kConfig = "plus/PlusDeviceSet_fCal_Sim_SpatialCalibration_1.2.xml";
+constexpr const char* kCalibration = "plus/fCal_Test_Calibration_3NWires.igs.mha";
+constexpr const char* kValidation = "plus/fCal_Test_Validation_3NWires.igs.mha";
+
+std::filesystem::path dataPath(const Params& p, const std::string& key, const char* relative) {
+  if (p.has(key)) {
+    std::filesystem::path path = p.text(key, "");
+    if (!std::filesystem::exists(path)) {
+      throw FileError("parameter '" + key + "': file '" + path.string() + "' does not exist");
+    }
+    return path;
+  }
+  if (auto found = findDataFile(relative)) return *found;
+  throw FileError(std::string("the PLUS recording '") + relative + "' is not in the data directory '" +
+                  dataDirectory().string() + "': set MRSNS_DATA_DIR or give config/calibration/validation parameters");
+}
+
+struct Inputs {
+  io::DeviceSetConfiguration config;
+  TrackedSequence calibration;
+  TrackedSequence validation;
+  std::filesystem::path calibration_path;
+};
+
+Inputs readInputs(const Params& p, const StepContext& context) {
+  Inputs in;
+  context.report(0.05, "reading the device set");
+  in.config = io::readDeviceSet(dataPath(p, "config", kConfig));
+  checkCancel(context);
+  context.report(0.1, "reading the calibration recording");
+  in.calibration_path = dataPath(p, "calibration", kCalibration);
+  in.calibration = io::readSequence(in.calibration_path);
+  checkCancel(context);
+  context.report(0.25, "reading the validation recording");
+  in.validation = io::readSequence(dataPath(p, "validation", kValidation));
+  checkCancel(context);
+  return in;
+}
+
+Json errorFigures(const ultrasound::CalibrationErrorReport& e) {
+  return Json{{"reprojection_3d_mean_mm", e.reprojection_3d_mean_mm},
+              {"reprojection_3d_std_mm", e.reprojection_3d_std_mm},
+              {"reprojection_3d_all_mean_mm", e.reprojection_3d_all_mean_mm},
+              {"wire_distance_rms_mm", e.wire_distance_rms_mm},
+              {"frames", e.frames}};
+}
+
+}  // namespace
+
+StepResult runUsSpatialCalibration(Session& session, const Json& params, const StepContext& context) {
+  const Params p("us-spatial-calibration", params, {"config", "calibration", "validation", "tracker_lag_ms"});
+  const Inputs in = readInputs(p, context);
+  ultrasound::TrackerLagOptions lag;
+  lag.lag_s = p.number("tracker_lag_ms", 0.0) * 1e-3;
+  context.report(0.3, "segmenting the N-wires and calibrating");
+  const auto run = ultrasound::calibrateProbe(in.config, in.calibration, in.validation, {}, lag);
+  checkCancel(context);
+  const auto& r = run.result;
+  const std::string output = "us-spatial-calibration/ImageToProbe.tfm";
+  std::filesystem::create_directories(session.resolve("us-spatial-calibration"));
+  io::writeTransformFile(r.probe_T_image, session.resolve(output));
+
+  StepResult result;
+  result.ok = true;
+  result.figures = {
+      {"calibration", errorFigures(r.calibration)},
+      {"validation", errorFigures(run.validation_errors)},
+      {"pixel_spacing_mm", {r.pixel_spacing_mm.x(), r.pixel_spacing_mm.y()}},
+      {"frames_used", r.frames_used},
+      {"frames_rejected", r.rejected_frames.size()},
+      {"segmented_frames", run.calibration.segmented_frames},
+      {"total_frames", run.calibration.total_frames},
+      {"seconds", run.seconds},
+      // PLUS's own result on the same files (data/README.md).
+      {"plus_reference",
+       {{"calibration_reprojection_3d_mean_mm", 1.15532}, {"validation_reprojection_3d_mean_mm", 1.24684}}},
+      {"transforms", {{"ImageToProbe", matrixJson(r.probe_T_image)}}}};
+  result.outputs = {output};
+  std::ostringstream s;
+  s.precision(3);
+  s << "ImageToProbe from " << r.frames_used << " frames: validation 3D reprojection "
+    << run.validation_errors.reprojection_3d_mean_mm << " +/- " << run.validation_errors.reprojection_3d_std_mm
+    << " mm (PLUS 1.25 +/- 0.49)";
+  result.summary = s.str();
+  return result;
+}
+
+StepResult runUsTemporalCalibration(Session& /*session*/, const Json& params, const StepContext& context) {
+  const Params p("us-temporal-calibration", params,
+                 {"config", "calibration", "validation", "search_half_range_ms", "search_step_ms"});
+  const Inputs in = readInputs(p, context);
+  ultrasound::TrackerLagOptions lag;
+  lag.estimate = true;
+  lag.search_half_range_s = p.number("search_half_range_ms", 200.0) * 1e-3;
+  lag.search_step_s = p.number("search_step_ms", 20.0) * 1e-3;
+  if (!(lag.search_half_range_s > 0.0) || !(lag.search_step_s > 0.0) || lag.search_step_s > lag.search_half_range_s) {
+    throw InvalidArgumentError(
+        "us-temporal-calibration: search_step_ms must be > 0 and at most search_half_range_ms (> 0)");
+  }
+  context.report(0.3, "searching the tracker lag (calibration error over lags)");
+  const auto run = ultrasound::calibrateProbe(in.config, in.calibration, in.validation, {}, lag);
+  checkCancel(context);
+  Json curve = Json::array();
+  for (const auto& c : run.tracker_lag.curve) {
+    curve.push_back(Json{{"lag_ms", c.lag_s * 1e3}, {"reprojection_3d_mean_mm", c.reprojection_3d_mean_mm}});
+  }
+  StepResult result;
+  result.ok = true;
+  result.figures = {{"tracker_lag_ms", run.tracker_lag.lag_s * 1e3},
+                    {"curvature_mm_per_s2", run.tracker_lag.curvature_mm_per_s2},
+                    {"validation_reprojection_3d_mean_mm_at_lag", run.validation_errors.reprojection_3d_mean_mm},
+                    {"curve", curve},
+                    {"seconds", run.seconds}};
+  std::ostringstream s;
+  s.precision(3);
+  s << "tracker lag " << run.tracker_lag.lag_s * 1e3 << " ms (validation 3D reprojection "
+    << run.validation_errors.reprojection_3d_mean_mm << " mm at that lag)";
+  result.summary = s.str();
+  return result;
+}
+
+}  // namespace mrsns::workflow::detail
