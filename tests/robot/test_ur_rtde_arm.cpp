@@ -165,3 +165,18 @@ TEST(UrRtdeArm, NoControllerIsAClearNetworkError) {
   o.frequency_hz = 1000;
   EXPECT_THROW(UrRtdeArm{o}, mrsns::InvalidArgumentError);
 }
+
+TEST(UrRtdeArm, InjectedFaultsReachTheClient) {
+  UrSimulator sim(ephemeral());
+  UrRtdeArm arm(clientOf(sim));
+  ASSERT_TRUE(waitFor([&] { return arm.state().connected; }, 3));
+  // A protective stop raised by the controller itself at a known cycle: the client sees it, stamped no earlier.
+  const auto at = sim.armState().cycle + 25;
+  sim.arm().injectFault(Fault::ProtectiveStop, at);
+  ASSERT_TRUE(waitFor([&] { return arm.state().safety == SafetyMode::ProtectiveStop; }, 3));
+  EXPECT_GE(arm.state().cycle, at);
+  EXPECT_FALSE(arm.speedL(Twist::Zero(), 100));  // motion refused in a protective stop
+  // The controller's link drops (its side): the stream stops and the client reports the loss.
+  sim.arm().injectFault(Fault::Disconnect, sim.armState().cycle + 5);
+  EXPECT_TRUE(waitFor([&] { return !arm.state().connected; }, 3));
+}
