@@ -106,14 +106,18 @@ StepResult runUsTemporalCalibration(Session& /*session*/, const Json& params, co
   const Inputs in = readInputs(p, context);
   ultrasound::TrackerLagOptions lag;
   lag.estimate = true;
-  lag.search_half_range_s = p.number("search_half_range_ms", 200.0) * 1e-3;
+  lag.search_half_range_s = p.number("search_half_range_ms", 1000.0) * 1e-3;
   lag.search_step_s = p.number("search_step_ms", 20.0) * 1e-3;
   if (!(lag.search_half_range_s > 0.0) || !(lag.search_step_s > 0.0) || lag.search_step_s > lag.search_half_range_s) {
     throw InvalidArgumentError(
         "us-temporal-calibration: search_step_ms must be > 0 and at most search_half_range_ms (> 0)");
   }
   context.report(0.3, "searching the tracker lag (calibration error over lags)");
-  const auto run = ultrasound::calibrateProbe(in.config, in.calibration, in.validation, {}, lag);
+  // Middle-wire points: the objective whose lag estimate the ultrasound
+  // module validated on this recording (tests/ultrasound/test_calibration_real.cpp).
+  ultrasound::SpatialCalibrationOptions spatial;
+  spatial.objective = ultrasound::CalibrationObjective::MiddleWirePoints;
+  const auto run = ultrasound::calibrateProbe(in.config, in.calibration, in.validation, spatial, lag);
   checkCancel(context);
   Json curve = Json::array();
   for (const auto& c : run.tracker_lag.curve) {

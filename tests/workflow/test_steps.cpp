@@ -1,0 +1,189 @@
+// Every workflow step through runStep: progress reported, figures recorded
+// in the session, cancellation honoured, bad parameters refused.
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <mutex>
+
+#include "mrsns/core/error.h"
+#include "mrsns/io/sequence_file.h"
+#include "mrsns/workflow/steps.h"
+#include "test_data.h"
+
+namespace mrsns::workflow {
+namespace {
+
+struct ProgressLog {
+  std::mutex mutex;
+  std::vector<double> fractions;
+  StepContext context() {
+    StepContext c;
+    c.progress = [this](double f, const std::string&) {
+      std::lock_guard lock(mutex);
+      fractions.push_back(f);
+    };
+    return c;
+  }
+  void expectMonotoneToOne() {
+    ASSERT_GE(fractions.size(), 3u);
+    EXPECT_EQ(fractions.front(), 0.0);
+    EXPECT_EQ(fractions.back(), 1.0);
+    for (std::size_t i = 1; i < fractions.size(); ++i) EXPECT_GE(fractions[i], fractions[i - 1]);
+  }
+};
+
+TEST(Steps, ListIsThePaperWorkflowInOrder) {
+  const auto steps = listSteps();
+  const std::vector<std::string> expected = {"connect-devices",   "us-spatial-calibration", "us-temporal-calibration",
+                                             "robot-calibration", "registration",           "hmd-calibration",
+                                             "navigation",        "robot-placement"};
+  ASSERT_EQ(steps.size(), expected.size());
+  for (std::size_t i = 0; i < steps.size(); ++i) {
+    EXPECT_EQ(steps[i].name, expected[i]);
+    EXPECT_TRUE(steps[i].area == "preparation" || steps[i].area == "function");
+    EXPECT_FALSE(steps[i].title.empty());
+  }
+}
+
+TEST(Steps, EverySimulatedStepRunsWithProgressAndRecordsFigures) {
+  auto session = Session::create(test::scratchDirectory("s") / "session");
+  const std::vector<std::pair<std::string, nlohmann::json>> runs = {
+      {"connect-devices", {{"duration_s", 0.3}}},
+      {"robot-calibration", nlohmann::json::object()},
+      {"registration", {{"spacing_mm", 1.5}}},
+      {"hmd-calibration", nlohmann::json::object()},
+      {"navigation", {{"duration_s", 0.5}, {"deformation_cases", 1}, {"deformation_frames", 20}}},
+      {"robot-placement", nlohmann::json::object()},
+  };
+  for (const auto& [name, params] : runs) {
+    SCOPED_TRACE(name);
+    ProgressLog log;
+    const auto result = runStep(session, name, params, log.context());
+    EXPECT_TRUE(result.ok) << result.summary;
+    EXPECT_FALSE(result.summary.empty());
+    log.expectMonotoneToOne();
+    EXPECT_EQ(session.step(name)["status"], "ok");
+    for (const auto& out : result.outputs) EXPECT_TRUE(std::filesystem::exists(session.resolve(out))) << out;
+  }
+  // Simulated noise models -> expected accuracy (tolerances from the models,
+  // see the figures' noise_model): 8 fiducials at 0.5 mm FLE give an expected
+  // FRE of 0.5*sqrt(1-2/8) = 0.43 mm; TRE at the screws below 1 mm.
+  const auto reg = session.step("registration")["figures"];
+  EXPECT_NEAR(reg["landmarks"]["fre_rms_mm"].get<double>(), 0.43, 0.3);
+  EXPECT_LT(reg["surface"]["tre"]["max"].get<double>(), 1.5);
+  EXPECT_LT(session.step("robot-calibration")["figures"]["tre_at_patient_mm"].get<double>(), 1.5);
+  EXPECT_LT(session.step("hmd-calibration")["figures"]["tre_at_patient_mm"].get<double>(), 3.0);
+  const auto placement = session.step("robot-placement")["figures"];
+  EXPECT_EQ(placement["paths"].size(), 4u);
+  EXPECT_LT(placement["target_error_mm"]["max"].get<double>(), 3.0);
+  const auto nav = session.step("navigation")["figures"];
+  EXPECT_GT(nav["batches"].get<int>(), 5);
+  EXPECT_EQ(nav["frames_in_file"], nav["batches"]) << "every batch recorded after a clean stop";
+  EXPECT_FALSE(nav["robot_stopped"].get<bool>()) << nav["stop_reason"];
+  // Reopened, the session has every step.
+  const auto reopened = Session::open(session.folder());
+  for (const auto& [name, params] : runs) EXPECT_EQ(reopened.step(name)["status"], "ok") << name;
+}
+
+TEST(Steps, UltrasoundCalibrationsOnThePlusRecording) {
+  MRSNS_REQUIRE_DATA(config, "plus/PlusDeviceSet_fCal_Sim_SpatialCalibration_1.2.xml");
+  auto session = Session::create(test::scratchDirectory("s") / "session");
+  ProgressLog log;
+  const auto spatial = runStep(session, "us-spatial-calibration", {}, log.context());
+  ASSERT_TRUE(spatial.ok) << spatial.summary;
+  log.expectMonotoneToOne();
+  // PLUS's own result on these files: validation 1.25 +/- 0.49 mm.
+  EXPECT_LT(spatial.figures["validation"]["reprojection_3d_mean_mm"].get<double>(), 1.6);
+  ASSERT_EQ(spatial.outputs.size(), 1u);
+  EXPECT_TRUE(std::filesystem::exists(session.resolve(spatial.outputs[0])));
+  const auto temporal = runStep(session, "us-temporal-calibration", {}, {});
+  ASSERT_TRUE(temporal.ok) << temporal.summary;
+  // The same estimate tests/ultrasound/test_calibration_real.cpp checks: 0.49 s
+  // within the 20 ms search step plus the curve's flatness (79 ms).
+  EXPECT_NEAR(temporal.figures["tracker_lag_ms"].get<double>(), 490.0, 79.0);
+  // Applying the lag beats PLUS's lag-free validation figure (1.25 mm).
+  EXPECT_LT(temporal.figures["validation_reprojection_3d_mean_mm_at_lag"].get<double>(), 1.25);
+}
+
+TEST(Steps, CancelBeforeStartReturnsCancelledForEveryStep) {
+  auto session = Session::create(test::scratchDirectory("s") / "session");
+  std::atomic<bool> cancel{true};
+  StepContext context;
+  context.cancel = &cancel;
+  for (const auto& step : listSteps()) {
+    if (step.name == "robot-placement") {
+      // Placement needs registration and robot calibration recorded first.
+      ASSERT_TRUE(runStep(session, "registration", {{"spacing_mm", 1.5}}, {}).ok);
+      ASSERT_TRUE(runStep(session, "robot-calibration", {}, {}).ok);
+    }
+    if (step.name.rfind("us-", 0) == 0 && !findDataFile("plus/fCal_Test_Calibration_3NWires.igs.mha")) continue;
+    SCOPED_TRACE(step.name);
+    const auto result = runStep(session, step.name, {}, context);
+    EXPECT_FALSE(result.ok);
+    EXPECT_TRUE(result.cancelled);
+    EXPECT_EQ(session.step(step.name)["status"], "cancelled");
+  }
+}
+
+TEST(Steps, CancelDuringNavigationStopsWithinItsCheckInterval) {
+  auto session = Session::create(test::scratchDirectory("s") / "session");
+  std::atomic<bool> cancel{false};
+  StepContext context;
+  context.cancel = &cancel;
+  context.progress = [&](double, const std::string& message) {
+    if (message == "navigating") cancel = true;  // the user presses cancel while navigating
+  };
+  const auto start = std::chrono::steady_clock::now();
+  const auto result = runStep(session, "navigation", {{"duration_s", 60.0}}, context);
+  EXPECT_TRUE(result.cancelled);
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 5.0);
+}
+
+TEST(Steps, BadInputGetsActionableErrors) {
+  auto session = Session::create(test::scratchDirectory("s") / "session");
+  EXPECT_THROW(runStep(session, "no-such-step", {}, {}), InvalidArgumentError);
+  try {
+    runStep(session, "connect-devices", {{"durration_s", 1.0}}, {});
+    FAIL();
+  } catch (const InvalidArgumentError& e) {
+    EXPECT_NE(std::string(e.what()).find("duration_s"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(runStep(session, "connect-devices", {{"source", "magic"}}, {}), InvalidArgumentError);
+  EXPECT_THROW(runStep(session, "connect-devices", {{"duration_s", "long"}}, {}), InvalidArgumentError);
+  try {
+    runStep(session, "robot-placement", {}, {});
+    FAIL();
+  } catch (const InvalidArgumentError& e) {
+    EXPECT_NE(std::string(e.what()).find("registration"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Steps, TrackerLossStopsTheRobotLogsWhyAndKeepsTheRecording) {
+  auto session = Session::create(test::scratchDirectory("s") / "session");
+  const auto result = runStep(session, "navigation",
+                              {{"duration_s", 1.2},
+                               {"dropout_tool", "PatientToTracker"},
+                               {"dropout_start_s", 0.4},
+                               {"dropout_duration_s", 0.3},
+                               {"deformation_cases", 0}},
+                              {});
+  ASSERT_TRUE(result.ok) << result.summary;
+  EXPECT_TRUE(result.figures["robot_stopped"].get<bool>());
+  EXPECT_NE(result.figures["stop_reason"].get<std::string>().find("PatientToTracker"), std::string::npos);
+  bool logged = false;
+  for (const auto& line : session.state()["log"]) {
+    logged |=
+        line["message"].get<std::string>().find("robot stopped: tracking lost: PatientToTracker") != std::string::npos;
+  }
+  EXPECT_TRUE(logged) << session.state()["log"].dump();
+  // The recording is intact and shows the loss.
+  const auto recording = io::readSequence(session.resolve(result.outputs.at(0)));
+  EXPECT_EQ(recording.frames.size(), result.figures["batches"].get<std::size_t>());
+  std::size_t invalid = 0;
+  for (const auto& f : recording.frames) invalid += f.transformStatus("PatientToTracker") != TransformStatus::Ok;
+  EXPECT_GT(invalid, 5u);
+  EXPECT_LT(invalid, recording.frames.size());
+}
+
+}  // namespace
+}  // namespace mrsns::workflow
