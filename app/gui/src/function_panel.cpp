@@ -1,0 +1,117 @@
+#include "function_panel.h"
+
+#include <QCheckBox>
+#include <QGridLayout>
+#include <QGroupBox>
+#include <QHBoxLayout>
+#include <QLabel>
+#include <QPushButton>
+#include <QSpinBox>
+#include <QVBoxLayout>
+#include <QVariant>
+
+namespace mrsns::gui {
+
+FunctionPanel::FunctionPanel(QWidget* parent) : QWidget(parent) {
+  auto* layout = new QVBoxLayout(this);
+  layout->setContentsMargins(6, 6, 6, 6);
+  layout->setSpacing(8);
+
+  navigation_ = new StepList(tr("Navigation"), this);
+  robot_ = new StepList(tr("Robot"), this);
+  auto* stop = new QPushButton(tr("Stop robot"), robot_);
+  stop->setObjectName(QStringLiteral("robotStop"));
+  stop->setProperty("danger", true);
+  stop->setToolTip(tr("Cancels the running robot task; the supervisor halts the arm (Esc)"));
+  static_cast<QGridLayout*>(robot_->layout())->addWidget(stop, 0, 0, 1, 2);
+  connect(stop, &QPushButton::clicked, this, &FunctionPanel::robotStopRequested);
+  for (auto* list : {navigation_, robot_}) {
+    layout->addWidget(list);
+    connect(list, &StepList::runRequested, this, &FunctionPanel::runStepRequested);
+  }
+
+  auto* mr = new QGroupBox(tr("Mixed reality"), this);
+  auto* mr_layout = new QGridLayout(mr);
+  stream_button_ = new QPushButton(tr("Hologram stream"), mr);
+  stream_button_->setObjectName(QStringLiteral("hologramStream"));
+  stream_button_->setCheckable(true);
+  stream_button_->setToolTip(tr("Serve the models and their poses to the HMD over OpenIGTLink (127.0.0.1)"));
+  stream_port_ = new QSpinBox(mr);
+  stream_port_->setObjectName(QStringLiteral("hologramPort"));
+  stream_port_->setRange(1024, 65535);
+  stream_port_->setValue(18945);
+  stream_port_->setPrefix(tr("port "));
+  stream_status_ = new QLabel(tr("off"), mr);
+  stream_status_->setObjectName(QStringLiteral("hologramStatus"));
+  mr_layout->addWidget(stream_button_, 0, 0);
+  mr_layout->addWidget(stream_port_, 0, 1);
+  mr_layout->addWidget(stream_status_, 1, 0, 1, 2);
+  connect(stream_button_, &QPushButton::toggled, this, &FunctionPanel::hologramStreamToggled);
+  layout->addWidget(mr);
+
+  auto* display = new QGroupBox(tr("Ultrasound and display"), this);
+  auto* display_layout = new QGridLayout(display);
+  const std::tuple<DisplayLayer, const char*, QString> layers[] = {
+      {DisplayLayer::Ultrasound, "layerUltrasound", tr("Live US slice")},
+      {DisplayLayer::Vertebrae, "layerVertebrae", tr("Vertebrae")},
+      {DisplayLayer::SoftTissue, "layerSoftTissue", tr("Soft tissue")},
+      {DisplayLayer::PlannedPaths, "layerPaths", tr("Planned paths")},
+      {DisplayLayer::Tools, "layerTools", tr("Tools")},
+      {DisplayLayer::SliceViews, "layerSliceViews", tr("Slice views")},
+  };
+  int i = 0;
+  for (const auto& [layer, name, text] : layers) {
+    auto* box = new QCheckBox(text, display);
+    box->setObjectName(QString::fromLatin1(name));
+    box->setChecked(true);
+    display_layout->addWidget(box, i / 2, i % 2);
+    layers_.emplace_back(layer, box);
+    connect(box, &QCheckBox::toggled, this, [this, l = layer](bool on) { emit layerToggled(l, on); });
+    ++i;
+  }
+  auto* reset = new QPushButton(tr("Reset camera"), display);
+  reset->setObjectName(QStringLiteral("resetCamera"));
+  reset->setToolTip(tr("Fit the 3D view to the scene (Home)"));
+  display_layout->addWidget(reset, (i + 1) / 2, 0, 1, 2);
+  connect(reset, &QPushButton::clicked, this, &FunctionPanel::resetCameraRequested);
+  layout->addWidget(display);
+  layout->addStretch(1);
+}
+
+void FunctionPanel::setSteps(const std::vector<StepEntry>& steps) {
+  for (const auto& step : steps) {
+    if (step.area != QLatin1String("function")) continue;
+    StepList* list = step.name.contains(QLatin1String("robot")) ? robot_ : navigation_;
+    if (!list->hasStep(step.name)) list->addStep(step);
+  }
+}
+
+void FunctionPanel::setStepState(const QString& step, StepState state, const QString& detail) {
+  robot_->setStepState(step, state, detail);
+  navigation_->setStepState(step, state, detail);
+}
+
+void FunctionPanel::setBusy(bool busy) {
+  robot_->setBusy(busy);
+  navigation_->setBusy(busy);
+}
+
+void FunctionPanel::setStreaming(bool on, const QString& detail) {
+  const QSignalBlocker block(stream_button_);
+  stream_button_->setChecked(on);
+  stream_port_->setEnabled(!on);
+  stream_status_->setText(detail);
+}
+
+int FunctionPanel::streamPort() const {
+  return stream_port_->value();
+}
+
+bool FunctionPanel::layerVisible(DisplayLayer layer) const {
+  for (const auto& [l, box] : layers_) {
+    if (l == layer) return box->isChecked();
+  }
+  return false;
+}
+
+}  // namespace mrsns::gui

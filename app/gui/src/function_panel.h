@@ -1,0 +1,51 @@
+#pragma once
+// The function area of paper 001 Fig. 4: robot (placement, stop), MR
+// (hologram stream to the HMD on/off), ultrasound (live slice) and display
+// toggles, plus the function steps (navigation, robot-assisted placement).
+#include <QString>
+#include <QWidget>
+#include <vector>
+
+#include "step_list.h"
+
+class QCheckBox;
+class QLabel;
+class QPushButton;
+class QSpinBox;
+
+namespace mrsns::gui {
+
+/// The groups of scene objects a user shows or hides.
+enum class DisplayLayer { Vertebrae, SoftTissue, PlannedPaths, Tools, Ultrasound, SliceViews };
+
+class FunctionPanel : public QWidget {
+  Q_OBJECT
+ public:
+  explicit FunctionPanel(QWidget* parent = nullptr);
+
+  void setSteps(const std::vector<StepEntry>& steps);
+  void setStepState(const QString& step, StepState state, const QString& detail = {});
+  void setBusy(bool busy);
+
+  /// Reflects the hologram stream (the button stays in sync when starting fails).
+  void setStreaming(bool on, const QString& detail);
+  [[nodiscard]] int streamPort() const;
+  [[nodiscard]] bool layerVisible(DisplayLayer layer) const;
+
+ signals:
+  void runStepRequested(const QString& step);
+  void hologramStreamToggled(bool on);
+  void robotStopRequested();
+  void layerToggled(mrsns::gui::DisplayLayer layer, bool visible);
+  void resetCameraRequested();
+
+ private:
+  StepList* robot_ = nullptr;
+  StepList* navigation_ = nullptr;
+  QPushButton* stream_button_ = nullptr;
+  QSpinBox* stream_port_ = nullptr;
+  QLabel* stream_status_ = nullptr;
+  std::vector<std::pair<DisplayLayer, QCheckBox*>> layers_;
+};
+
+}  // namespace mrsns::gui

@@ -1,0 +1,95 @@
+// MainWindow's hologram stream (function area, MR): the session's models
+// served to HMD clients over OpenIGTLink by tracking::HologramStreamer, on
+// 127.0.0.1, updated from a GUI timer.
+#include <QTimer>
+#include <chrono>
+#include <set>
+
+#include "function_panel.h"
+#include "main_window.h"
+#include "message_presenter.h"
+#include "mrsns/core/error.h"
+#include "mrsns/core/transform_repository.h"
+#include "mrsns/igtlink/server.h"
+#include "mrsns/tracking/hologram_streamer.h"
+
+namespace mrsns::gui {
+namespace {
+
+/// OpenIGTLink device names are at most 20 characters and must be unique.
+std::string deviceName(const std::string& scene_name, std::set<std::string>& used) {
+  std::string base = scene_name.substr(scene_name.find(':') + 1);
+  if (base.empty()) base = "Model";
+  base = base.substr(0, 20);
+  std::string name = base;
+  for (int i = 2; used.count(name) != 0; ++i) {
+    const std::string suffix = "_" + std::to_string(i);
+    name = base.substr(0, 20 - suffix.size()) + suffix;
+  }
+  used.insert(name);
+  return name;
+}
+
+double nowSeconds() {
+  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+}
+
+}  // namespace
+
+bool MainWindow::startHologramStream(int port) {
+  stopHologramStream();
+  std::vector<tracking::HologramModel> models;
+  std::set<std::string> used;
+  for (const auto& [name, mesh] : meshes_) {
+    if (mesh.empty()) continue;
+    models.push_back(tracking::HologramModel{deviceName(name, used), mesh, mesh.frame.empty() ? "Preop" : mesh.frame});
+  }
+  if (models.empty()) {
+    function_->setStreaming(false, tr("off"));
+    presenter_->present(UserMessage{MessageKind::Error, tr("Hologram stream"),
+                                    tr("The session has no models to stream. Open a session with meshes or import "
+                                       "one (Ctrl+M) first.")});
+    return false;
+  }
+  try {
+    igtlink::ServerOptions options;
+    options.bind_address = "127.0.0.1";
+    options.port = static_cast<std::uint16_t>(port);
+    auto server = std::make_unique<igtlink::Server>(options);
+    auto repository = std::make_shared<TransformRepository>();
+    auto streamer = std::make_unique<tracking::HologramStreamer>(*server, repository, std::move(models));
+    server->start();
+    stream_server_ = std::move(server);
+    streamer_ = std::move(streamer);
+  } catch (const mrsns::Error& e) {
+    function_->setStreaming(false, tr("off"));
+    presenter_->present(
+        UserMessage{MessageKind::Error, tr("Hologram stream"),
+                    QString::fromStdString(e.what()) + tr("\nChoose another port if this one is in use.")});
+    return false;
+  }
+  auto* timer = new QTimer(this);
+  timer->setObjectName(QStringLiteral("hologramTimer"));
+  connect(timer, &QTimer::timeout, this, [this, port] {
+    if (!streamer_) return;
+    streamer_->update(nowSeconds());
+    function_->setStreaming(true, tr("serving %1 clients on 127.0.0.1:%2").arg(streamer_->readyClients()).arg(port));
+  });
+  timer->start(33);
+  function_->setStreaming(true, tr("serving on 127.0.0.1:%1, waiting for the HMD").arg(port));
+  return true;
+}
+
+void MainWindow::stopHologramStream() {
+  if (auto* timer = findChild<QTimer*>(QStringLiteral("hologramTimer"))) {
+    timer->stop();
+    timer->deleteLater();
+    timer->setObjectName(QString());
+  }
+  streamer_.reset();
+  if (stream_server_) stream_server_->stop();
+  stream_server_.reset();
+  if (function_) function_->setStreaming(false, tr("off"));
+}
+
+}  // namespace mrsns::gui

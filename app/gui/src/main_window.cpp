@@ -1,0 +1,632 @@
+#include "main_window.h"
+
+#include <QAction>
+#include <QApplication>
+#include <QCloseEvent>
+#include <QDateTime>
+#include <QDir>
+#include <QDockWidget>
+#include <QFileDialog>
+#include <QKeySequence>
+#include <QLabel>
+#include <QMenuBar>
+#include <QProgressBar>
+#include <QPushButton>
+#include <QScrollArea>
+#include <QSettings>
+#include <QStandardPaths>
+#include <QStatusBar>
+#include <filesystem>
+
+#include "display_area.h"
+#include "function_panel.h"
+#include "message_presenter.h"
+#include "mrsns/core/error.h"
+#include "mrsns/core/log.h"
+#include "mrsns/igtlink/server.h"
+#include "mrsns/rendering/scene.h"
+#include "mrsns/tracking/hologram_streamer.h"
+#include "mrsns/workflow/session.h"
+#include "mrsns/workflow/steps.h"
+#include "output_panel.h"
+#include "session_import.h"
+#include "task_runner.h"
+
+namespace mrsns::gui {
+namespace {
+
+constexpr int kMaxRecent = 8;
+const char* kRecentKey = "sessions/recent";
+
+QString toQ(const std::string& s) {
+  return QString::fromStdString(s);
+}
+std::filesystem::path toPath(const QString& s) {
+  return std::filesystem::path(s.toStdString());
+}
+
+QDockWidget* makeDock(QMainWindow* window, const QString& title, const QString& name, QWidget* content, bool scroll) {
+  auto* dock = new QDockWidget(title, window);
+  dock->setObjectName(name + QStringLiteral("Dock"));
+  dock->setFeatures(QDockWidget::DockWidgetMovable | QDockWidget::DockWidgetFloatable |
+                    QDockWidget::DockWidgetClosable);
+  content->setObjectName(name);
+  if (scroll) {
+    auto* area = new QScrollArea(dock);
+    area->setWidget(content);
+    area->setWidgetResizable(true);
+    area->setFrameShape(QFrame::NoFrame);
+    dock->setWidget(area);
+  } else {
+    dock->setWidget(content);
+  }
+  return dock;
+}
+
+/// The headline figure shown next to a step's button.
+QString headline(const nlohmann::json& figures) {
+  if (!figures.is_object()) return {};
+  for (const char* needle : {"fre", "rms", "error", "offset"}) {
+    for (auto it = figures.begin(); it != figures.end(); ++it) {
+      if (it.key().find(needle) != std::string::npos && it->is_number()) {
+        return toQ(it.key()) + QStringLiteral(" ") + formatFigure(it.key(), *it);
+      }
+    }
+  }
+  return {};
+}
+
+}  // namespace
+
+MainWindow::MainWindow(MainWindowOptions options, QWidget* parent) : QMainWindow(parent), options_(std::move(options)) {
+  presenter_ = options_.presenter ? options_.presenter : std::make_shared<DialogPresenter>(this);
+  setObjectName(QStringLiteral("mainWindow"));
+  setWindowTitle(tr("MR-SNS"));
+  setDockOptions(QMainWindow::AnimatedDocks | QMainWindow::AllowTabbedDocks);
+  setStyleSheet(workstationStyleSheet());
+
+  tasks_ = new TaskRunner(this);
+  display_ = new DisplayArea(this);
+  display_->setObjectName(QStringLiteral("displayArea"));
+  setCentralWidget(display_);
+
+  preparation_ = new PreparationPanel;
+  function_ = new FunctionPanel;
+  output_ = new OutputPanel;
+  std::vector<StepEntry> steps;
+  for (const auto& info : workflow::listSteps()) {
+    steps.push_back(StepEntry{toQ(info.name), toQ(info.title), toQ(info.area), toQ(info.description)});
+  }
+  preparation_->setSteps(steps);
+  function_->setSteps(steps);
+
+  preparation_dock_ = makeDock(this, tr("Preparation"), QStringLiteral("preparationArea"), preparation_, true);
+  function_dock_ = makeDock(this, tr("Function"), QStringLiteral("functionArea"), function_, true);
+  output_dock_ = makeDock(this, tr("Output"), QStringLiteral("outputArea"), output_, false);
+  addDockWidget(Qt::LeftDockWidgetArea, preparation_dock_);
+  addDockWidget(Qt::LeftDockWidgetArea, function_dock_);
+  addDockWidget(Qt::RightDockWidgetArea, output_dock_);
+  resizeDocks({preparation_dock_, output_dock_}, {330, 380}, Qt::Horizontal);
+
+  connect(preparation_, &PreparationPanel::runStepRequested, this, [this](const QString& s) { runStep(s); });
+  connect(function_, &FunctionPanel::runStepRequested, this, [this](const QString& s) { runStep(s); });
+  connect(preparation_, &PreparationPanel::importRequested, this, &MainWindow::chooseAndImport);
+  connect(preparation_, &PreparationPanel::pivotCalibrationRequested, this, &MainWindow::chooseAndRunPivot);
+  connect(function_, &FunctionPanel::robotStopRequested, this, &MainWindow::cancelTask);
+  connect(function_, &FunctionPanel::resetCameraRequested, display_, &DisplayArea::resetCamera);
+  connect(function_, &FunctionPanel::hologramStreamToggled, this, [this](bool on) {
+    if (on) {
+      startHologramStream(function_->streamPort());
+    } else {
+      stopHologramStream();
+    }
+  });
+  connect(function_, &FunctionPanel::layerToggled, this, [this](DisplayLayer layer, bool visible) {
+    if (layer == DisplayLayer::SliceViews) {
+      display_->setSliceViewsVisible(visible);
+      return;
+    }
+    applyLayerVisibility(display_->scene(), layer, visible);
+    display_->render();
+  });
+
+  connect(tasks_, &TaskRunner::started, this, &MainWindow::onTaskStarted);
+  connect(tasks_, &TaskRunner::progressed, this, &MainWindow::onTaskProgress);
+  connect(tasks_, &TaskRunner::finished, this, &MainWindow::onTaskFinished);
+
+  buildMenus();
+  buildStatusBar();
+  resize(1440, 900);
+  if (options_.remember_window_state) restoreWindowState();
+}
+
+MainWindow::~MainWindow() {
+  tasks_->cancel();
+  tasks_->waitForFinished();
+  stopHologramStream();
+}
+
+// ---------------------------------------------------------------- menus
+
+void MainWindow::buildMenus() {
+  auto* file = menuBar()->addMenu(tr("&Session"));
+  auto add = [this](QMenu* menu, const QString& text, const QKeySequence& keys, const QString& name, auto slot) {
+    auto* action = menu->addAction(text);
+    action->setShortcut(keys);
+    action->setObjectName(name);
+    action->setShortcutContext(Qt::ApplicationShortcut);
+    connect(action, &QAction::triggered, this, slot);
+    return action;
+  };
+  add(file, tr("&New session…"), QKeySequence::New, QStringLiteral("actionNewSession"),
+      [this] { chooseAndCreateSession(); });
+  add(file, tr("&Open session…"), QKeySequence::Open, QStringLiteral("actionOpenSession"),
+      [this] { chooseAndOpenSession(); });
+  add(file, tr("Open &sample session"), QKeySequence(QStringLiteral("Ctrl+Shift+O")),
+      QStringLiteral("actionOpenSample"), [this] { openSampleSession(); });
+  recent_menu_ = file->addMenu(tr("&Recent sessions"));
+  recent_menu_->setObjectName(QStringLiteral("menuRecent"));
+  add(file, tr("&Save session"), QKeySequence::Save, QStringLiteral("actionSaveSession"), [this] { saveSession(); });
+  add(file, tr("Save session &as…"), QKeySequence(QStringLiteral("Ctrl+Shift+S")),
+      QStringLiteral("actionSaveSessionAs"), [this] { chooseAndSaveSessionAs(); });
+  file->addSeparator();
+  add(file, tr("Save screens&hot…"), QKeySequence(Qt::Key_F12), QStringLiteral("actionScreenshot"), [this] {
+    const QString png =
+        QFileDialog::getSaveFileName(this, tr("Save screenshot"), QStringLiteral("mrsns.png"), tr("PNG image (*.png)"));
+    if (!png.isEmpty()) saveScreenshot(png);
+  });
+  file->addSeparator();
+  add(file, tr("&Quit"), QKeySequence::Quit, QStringLiteral("actionQuit"), [this] { close(); });
+
+  auto* data = menuBar()->addMenu(tr("&Data"));
+  add(data, tr("Import &CT image…"), QKeySequence(QStringLiteral("Ctrl+I")), QStringLiteral("actionImportCt"),
+      [this] { chooseAndImport(ImportKind::CtImage); });
+  add(data, tr("Import &mesh…"), QKeySequence(QStringLiteral("Ctrl+M")), QStringLiteral("actionImportMesh"),
+      [this] { chooseAndImport(ImportKind::Mesh); });
+  add(data, tr("Import &landmarks…"), QKeySequence(QStringLiteral("Ctrl+L")), QStringLiteral("actionImportLandmarks"),
+      [this] { chooseAndImport(ImportKind::Landmarks); });
+  add(data, tr("Import se&quence…"), QKeySequence(QStringLiteral("Ctrl+E")), QStringLiteral("actionImportSequence"),
+      [this] { chooseAndImport(ImportKind::Sequence); });
+
+  auto* steps = menuBar()->addMenu(tr("&Workflow"));
+  int index = 0;
+  for (const auto& info : workflow::listSteps()) {
+    // Ctrl+1..9 run the steps in the order of the paper's workflow.
+    const QKeySequence keys = index < 9 ? QKeySequence(QStringLiteral("Ctrl+%1").arg(index + 1)) : QKeySequence();
+    const QString name = toQ(info.name);
+    add(steps, toQ(info.title), keys, QStringLiteral("actionStep_") + name, [this, name] { runStep(name); });
+    ++index;
+  }
+  steps->addSeparator();
+  add(steps, tr("Pivot calibration…"), QKeySequence(QStringLiteral("Ctrl+P")), QStringLiteral("actionPivot"),
+      [this] { chooseAndRunPivot(); });
+  add(steps, tr("&Cancel running task"), QKeySequence(Qt::Key_Escape), QStringLiteral("actionCancel"),
+      [this] { cancelTask(); });
+
+  auto* view = menuBar()->addMenu(tr("&View"));
+  add(view, tr("&Reset camera"), QKeySequence(Qt::Key_Home), QStringLiteral("actionResetCamera"),
+      [this] { display_->resetCamera(); });
+  view->addSeparator();
+  for (auto* dock : {preparation_dock_, function_dock_, output_dock_}) view->addAction(dock->toggleViewAction());
+  preparation_dock_->toggleViewAction()->setShortcut(QKeySequence(QStringLiteral("Alt+1")));
+  function_dock_->toggleViewAction()->setShortcut(QKeySequence(QStringLiteral("Alt+2")));
+  output_dock_->toggleViewAction()->setShortcut(QKeySequence(QStringLiteral("Alt+3")));
+  add(view, tr("&Full screen"), QKeySequence(Qt::Key_F11), QStringLiteral("actionFullScreen"),
+      [this] { setWindowState(windowState() ^ Qt::WindowFullScreen); });
+
+  auto* help = menuBar()->addMenu(tr("&Help"));
+  add(help, tr("&Keyboard shortcuts"), QKeySequence(Qt::Key_F1), QStringLiteral("actionShortcuts"),
+      [this] { showShortcuts(); });
+  refreshRecentMenu();
+}
+
+void MainWindow::buildStatusBar() {
+  session_status_ = new QLabel(tr("no session"), this);
+  session_status_->setObjectName(QStringLiteral("sessionStatus"));
+  task_label_ = new QLabel(this);
+  task_label_->setObjectName(QStringLiteral("taskLabel"));
+  progress_ = new QProgressBar(this);
+  progress_->setObjectName(QStringLiteral("taskProgress"));
+  progress_->setRange(0, 1000);
+  progress_->setMaximumWidth(260);
+  progress_->setTextVisible(false);
+  progress_->hide();
+  cancel_ = new QPushButton(tr("Cancel"), this);
+  cancel_->setObjectName(QStringLiteral("taskCancel"));
+  cancel_->setToolTip(tr("Cancel the running task (Esc)"));
+  cancel_->hide();
+  connect(cancel_, &QPushButton::clicked, this, &MainWindow::cancelTask);
+  statusBar()->addWidget(session_status_, 1);
+  statusBar()->addPermanentWidget(task_label_);
+  statusBar()->addPermanentWidget(progress_);
+  statusBar()->addPermanentWidget(cancel_);
+}
+
+void MainWindow::showShortcuts() {
+  QString text;
+  for (auto* action : findChildren<QAction*>()) {
+    if (action->shortcut().isEmpty()) continue;
+    text += QStringLiteral("%1\t%2\n")
+                .arg(action->shortcut().toString(QKeySequence::NativeText), action->text().remove(QLatin1Char('&')));
+  }
+  presentInfo(tr("Keyboard shortcuts"), text);
+}
+
+// ---------------------------------------------------------------- settings
+
+void MainWindow::restoreWindowState() {
+  QSettings settings;
+  restoreGeometry(settings.value(QStringLiteral("window/geometry")).toByteArray());
+  restoreState(settings.value(QStringLiteral("window/state")).toByteArray());
+}
+
+void MainWindow::closeEvent(QCloseEvent* event) {
+  if (tasks_->busy()) {
+    tasks_->cancel();
+    tasks_->waitForFinished();
+  }
+  stopHologramStream();
+  if (options_.remember_window_state) {
+    QSettings settings;
+    settings.setValue(QStringLiteral("window/geometry"), saveGeometry());
+    settings.setValue(QStringLiteral("window/state"), saveState());
+  }
+  event->accept();
+}
+
+QStringList MainWindow::recentSessions() const {
+  if (!options_.remember_window_state) return {};
+  return QSettings().value(QLatin1String(kRecentKey)).toStringList();
+}
+
+void MainWindow::rememberSession(const QString& folder) {
+  if (!options_.remember_window_state) return;
+  QSettings settings;
+  QStringList recent = settings.value(QLatin1String(kRecentKey)).toStringList();
+  const QString canonical = QDir(folder).absolutePath();
+  recent.removeAll(canonical);
+  recent.prepend(canonical);
+  while (recent.size() > kMaxRecent) recent.removeLast();
+  settings.setValue(QLatin1String(kRecentKey), recent);
+  refreshRecentMenu();
+}
+
+void MainWindow::refreshRecentMenu() {
+  recent_menu_->clear();
+  const QStringList recent = recentSessions();
+  for (int i = 0; i < recent.size(); ++i) {
+    auto* action = recent_menu_->addAction(QStringLiteral("&%1  %2").arg(i + 1).arg(recent[i]));
+    connect(action, &QAction::triggered, this, [this, folder = recent[i]] { openSession(folder); });
+  }
+  recent_menu_->setEnabled(!recent.isEmpty());
+}
+
+// ---------------------------------------------------------------- messages
+
+void MainWindow::presentError(const QString& title, const QString& text) {
+  logger()->warn("{}: {}", title.toStdString(), text.toStdString());
+  presenter_->present(UserMessage{MessageKind::Error, title, text});
+}
+
+void MainWindow::presentInfo(const QString& title, const QString& text) {
+  presenter_->present(UserMessage{MessageKind::Information, title, text});
+}
+
+bool MainWindow::refuseWhileBusy(const QString& what) {
+  if (!tasks_->busy()) return false;
+  presentError(
+      what,
+      tr("\"%1\" is still running. Wait for it to finish or press Cancel (Esc) first.").arg(tasks_->currentTask()));
+  return true;
+}
+
+// ---------------------------------------------------------------- sessions
+
+QString MainWindow::sessionFolder() const {
+  return session_ ? QString::fromStdString(session_->folder().string()) : QString();
+}
+
+nlohmann::json MainWindow::sessionState() const {
+  return session_ ? session_->state() : nlohmann::json();
+}
+
+bool MainWindow::openSession(const QString& folder) {
+  if (refuseWhileBusy(tr("Open session"))) return false;
+  try {
+    auto opened = std::make_unique<workflow::Session>(workflow::Session::open(toPath(folder)));
+    stopHologramStream();
+    session_ = std::move(opened);
+  } catch (const mrsns::Error& e) {
+    presentError(tr("Cannot open the session"), QString::fromStdString(e.what()));
+    return false;
+  }
+  rememberSession(folder);
+  showSession();
+  emit sessionOpened(sessionFolder());
+  return true;
+}
+
+bool MainWindow::openSampleSession() {
+  QString work = options_.sample_work_folder;
+  if (work.isEmpty()) {
+    work = QStandardPaths::writableLocation(QStandardPaths::AppDataLocation) + QStringLiteral("/sample-session");
+  }
+  try {
+    // The bundled sample is read-only once installed: work on a copy, made
+    // once, so a user's steps on the sample survive a restart.
+    const auto copy = toPath(work);
+    if (!std::filesystem::exists(copy / "session.json")) {
+      std::filesystem::remove_all(copy);
+      std::filesystem::create_directories(copy.parent_path());
+      std::filesystem::copy(workflow::sampleSessionPath(), copy, std::filesystem::copy_options::recursive);
+    }
+  } catch (const mrsns::Error& e) {
+    presentError(tr("Cannot open the sample session"), QString::fromStdString(e.what()));
+    return false;
+  } catch (const std::filesystem::filesystem_error& e) {
+    presentError(tr("Cannot open the sample session"),
+                 tr("Copying the sample session to %1 failed: %2. Check that the folder is writable, or open "
+                    "another session (Ctrl+O).")
+                     .arg(work, QString::fromStdString(e.what())));
+    return false;
+  }
+  return openSession(work);
+}
+
+bool MainWindow::createSession(const QString& folder) {
+  if (refuseWhileBusy(tr("New session"))) return false;
+  try {
+    auto created = std::make_unique<workflow::Session>(workflow::Session::create(toPath(folder)));
+    stopHologramStream();
+    session_ = std::move(created);
+  } catch (const mrsns::Error& e) {
+    presentError(tr("Cannot create the session"), QString::fromStdString(e.what()));
+    return false;
+  }
+  rememberSession(folder);
+  showSession();
+  emit sessionOpened(sessionFolder());
+  return true;
+}
+
+bool MainWindow::saveSession() {
+  if (!session_) {
+    presentError(tr("Save session"), tr("No session is open. Open one (Ctrl+O) or create one (Ctrl+N) first."));
+    return false;
+  }
+  if (refuseWhileBusy(tr("Save session"))) return false;
+  try {
+    session_->save();
+  } catch (const mrsns::Error& e) {
+    presentError(tr("Cannot save the session"), QString::fromStdString(e.what()));
+    return false;
+  }
+  statusBar()->showMessage(tr("Session saved to %1").arg(sessionFolder()), 4000);
+  return true;
+}
+
+bool MainWindow::saveSessionAs(const QString& folder) {
+  if (!saveSession()) return false;
+  const auto target = toPath(folder);
+  try {
+    if (std::filesystem::exists(target) && !std::filesystem::is_empty(target)) {
+      presentError(tr("Save session as"), tr("%1 exists and is not empty. Choose a new or empty folder.").arg(folder));
+      return false;
+    }
+    std::filesystem::create_directories(target);
+    std::filesystem::copy(session_->folder(), target, std::filesystem::copy_options::recursive);
+  } catch (const std::filesystem::filesystem_error& e) {
+    presentError(tr("Save session as"), tr("Copying the session to %1 failed: %2. Check the folder's permissions and "
+                                           "free space.")
+                                            .arg(folder, QString::fromStdString(e.what())));
+    return false;
+  }
+  return openSession(folder);
+}
+
+void MainWindow::showSession() {
+  const QString folder = sessionFolder();
+  setWindowTitle(tr("MR-SNS — %1").arg(QDir(folder).dirName()));
+  preparation_->setSessionText(folder);
+  session_status_->setText(tr("Session: %1").arg(folder));
+  const nlohmann::json state = session_->state();
+  output_->showSessionState(state);
+  if (state.contains("steps") && state["steps"].is_object()) {
+    for (const auto& info : workflow::listSteps()) {
+      const QString name = toQ(info.name);
+      if (!state["steps"].contains(info.name)) {
+        setStepState(name, StepState::NotRun, {});
+        continue;
+      }
+      const auto& record = state["steps"][info.name];
+      const std::string status = record.value("status", std::string());
+      const bool ok = status == "ok" || status == "done";
+      setStepState(name, ok ? StepState::Done : StepState::Failed,
+                   headline(record.value("figures", nlohmann::json::object())));
+    }
+  }
+  populateScene();
+}
+
+void MainWindow::populateScene() {
+  meshes_.clear();
+  auto& scene = display_->scene();
+  scene.clear();
+  try {
+    meshes_ = loadSessionScene(*session_, scene, display_->slices());
+  } catch (const mrsns::Error& e) {
+    presentError(tr("Some session data could not be shown"), QString::fromStdString(e.what()));
+  }
+  for (auto layer : {DisplayLayer::Vertebrae, DisplayLayer::SoftTissue, DisplayLayer::PlannedPaths, DisplayLayer::Tools,
+                     DisplayLayer::Ultrasound}) {
+    applyLayerVisibility(scene, layer, function_->layerVisible(layer));
+  }
+  display_->resetCamera();
+}
+
+// ---------------------------------------------------------------- tasks
+
+bool MainWindow::taskRunning() const {
+  return tasks_->busy();
+}
+
+void MainWindow::cancelTask() {
+  if (!tasks_->busy()) return;
+  tasks_->cancel();
+  task_label_->setText(tr("cancelling %1…").arg(tasks_->currentTask()));
+}
+
+bool MainWindow::runStep(const QString& step, const nlohmann::json& params) {
+  if (!session_) {
+    presentError(tr("Run %1").arg(step), tr("No session is open. Open one (Ctrl+O) or the sample session "
+                                            "(Ctrl+Shift+O) first."));
+    return false;
+  }
+  if (refuseWhileBusy(tr("Run %1").arg(step))) return false;
+  workflow::Session* session = session_.get();
+  const std::string name = step.toStdString();
+  return tasks_->start(step, [session, name, params](const TaskControl& control) {
+    workflow::StepContext context;
+    context.progress = control.progress;
+    context.cancel = control.cancel;
+    const workflow::StepResult result = workflow::runStep(*session, name, params, context);
+    TaskOutcome outcome;
+    outcome.ok = result.ok;
+    outcome.cancelled = result.cancelled;
+    outcome.summary = QString::fromStdString(result.summary);
+    outcome.figures = result.figures;
+    outcome.outputs = result.outputs;
+    return outcome;
+  });
+}
+
+bool MainWindow::importFile(ImportKind kind, const QString& path) {
+  if (!session_) {
+    presentError(tr("Import"), tr("No session is open. Open or create a session first: imported files are "
+                                  "copied into it."));
+    return false;
+  }
+  if (refuseWhileBusy(tr("Import"))) return false;
+  const auto folder = session_->folder();
+  const auto file = toPath(path);
+  return tasks_->start(
+      QString::fromStdString(importRecordName(kind)),
+      [kind, folder, file](const TaskControl& control) { return importIntoSession(kind, file, folder, control); });
+}
+
+bool MainWindow::runPivotCalibration(const QString& pose_csv) {
+  if (refuseWhileBusy(tr("Pivot calibration"))) return false;
+  const auto file = toPath(pose_csv);
+  return tasks_->start(QStringLiteral("pivot-calibration"),
+                       [file](const TaskControl& control) { return pivotFromPoseFile(file, control); });
+}
+
+void MainWindow::onTaskStarted(const QString& name) {
+  preparation_->setBusy(true);
+  function_->setBusy(true);
+  progress_->setValue(0);
+  progress_->show();
+  cancel_->show();
+  task_label_->setText(tr("%1…").arg(name));
+  setStepState(name, StepState::Running, {});
+}
+
+void MainWindow::onTaskProgress(const QString& name, double fraction, const QString& message) {
+  progress_->setValue(static_cast<int>(std::clamp(fraction, 0.0, 1.0) * 1000));
+  task_label_->setText(message.isEmpty() ? name : QStringLiteral("%1: %2").arg(name, message));
+}
+
+void MainWindow::onTaskFinished(const QString& name, const TaskOutcome& outcome) {
+  preparation_->setBusy(false);
+  function_->setBusy(false);
+  progress_->hide();
+  cancel_->hide();
+  task_label_->clear();
+  const std::string step = name.toStdString();
+  if (outcome.cancelled) {
+    setStepState(name, StepState::Cancelled, {});
+    statusBar()->showMessage(tr("%1 cancelled").arg(name), 5000);
+  } else if (!outcome.error.isEmpty()) {
+    setStepState(name, StepState::Failed, {});
+    presentError(tr("%1 failed").arg(name), outcome.error);
+  } else if (!outcome.ok) {
+    setStepState(name, StepState::Failed, outcome.summary);
+    output_->showStepResult(step, "failed", outcome.figures);
+    presentError(tr("%1 did not succeed").arg(name), outcome.summary);
+  } else {
+    setStepState(name, StepState::Done, headline(outcome.figures));
+    output_->showStepResult(step, "ok", outcome.figures);
+    statusBar()->showMessage(outcome.summary, 8000);
+    // Steps and imports change the session's data: show what it holds now.
+    if (session_ && name != QLatin1String("pivot-calibration")) {
+      try {
+        if (name.startsWith(QLatin1String("import-"))) recordImport(step, outcome);
+        *session_ = workflow::Session::open(session_->folder());
+      } catch (const mrsns::Error& e) {
+        presentError(tr("Cannot reload the session"), QString::fromStdString(e.what()));
+      }
+      populateScene();
+    }
+  }
+  emit taskFinished(name, outcome.ok && outcome.error.isEmpty());
+}
+
+void MainWindow::recordImport(const std::string& record, const TaskOutcome& outcome) {
+  // Every import of a kind stays listed: the scene shows them all.
+  nlohmann::json previous = session_->step(record);
+  nlohmann::json outputs = previous.is_object() && previous.contains("outputs") && previous["outputs"].is_array()
+                               ? previous["outputs"]
+                               : nlohmann::json::array();
+  for (const auto& output : outcome.outputs) {
+    if (std::find(outputs.begin(), outputs.end(), output) == outputs.end()) outputs.push_back(output);
+  }
+  session_->recordStep(record, {{"status", "ok"},
+                                {"summary", outcome.summary.toStdString()},
+                                {"figures", outcome.figures},
+                                {"outputs", outputs}});
+}
+
+void MainWindow::setStepState(const QString& step, StepState state, const QString& detail) {
+  preparation_->setStepState(step, state, detail);
+  function_->setStepState(step, state, detail);
+}
+
+// ---------------------------------------------------------------- choosers
+
+void MainWindow::chooseAndOpenSession() {
+  const QString folder = QFileDialog::getExistingDirectory(this, tr("Open session folder"));
+  if (!folder.isEmpty()) openSession(folder);
+}
+
+void MainWindow::chooseAndCreateSession() {
+  const QString folder = QFileDialog::getExistingDirectory(this, tr("New session: choose an empty folder"));
+  if (!folder.isEmpty()) createSession(folder);
+}
+
+void MainWindow::chooseAndSaveSessionAs() {
+  const QString folder = QFileDialog::getExistingDirectory(this, tr("Save session as: choose an empty folder"));
+  if (!folder.isEmpty()) saveSessionAs(folder);
+}
+
+void MainWindow::chooseAndImport(ImportKind kind) {
+  const QString path = QFileDialog::getOpenFileName(this, tr("Import"), QString(), importFileFilter(kind));
+  if (!path.isEmpty()) importFile(kind, path);
+}
+
+void MainWindow::chooseAndRunPivot() {
+  const QString path = QFileDialog::getOpenFileName(this, tr("Pivot calibration: pose file"), QString(),
+                                                    tr("Pose CSV (*.csv);;All files (*)"));
+  if (!path.isEmpty()) runPivotCalibration(path);
+}
+
+bool MainWindow::saveScreenshot(const QString& png) {
+  display_->render();
+  const QPixmap pixmap = grab();
+  if (pixmap.isNull() || !pixmap.save(png, "PNG")) {
+    presentError(tr("Screenshot"), tr("Could not write %1. Check that its folder exists and is writable.").arg(png));
+    return false;
+  }
+  return true;
+}
+
+}  // namespace mrsns::gui

@@ -1,0 +1,150 @@
+#pragma once
+// The MR-SNS workstation window (paper 001 Fig. 4): preparation and function
+// areas on the left, the display area in the centre, the output area on the
+// right, a status bar with the running task's progress and Cancel. Every
+// button calls into mrsns::workflow or a module on a worker thread; errors
+// reach the user through the MessagePresenter, never as a crash.
+#include <QMainWindow>
+#include <QStringList>
+#include <map>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "mrsns/core/mesh.h"
+#include "preparation_panel.h"
+#include "step_list.h"
+
+class QLabel;
+class QMenu;
+class QProgressBar;
+class QPushButton;
+class QDockWidget;
+
+namespace mrsns::workflow {
+class Session;
+}
+namespace mrsns::tracking {
+class HologramStreamer;
+}
+namespace mrsns::igtlink {
+class Server;
+}
+
+namespace mrsns::gui {
+
+class DisplayArea;
+class FunctionPanel;
+class MessagePresenter;
+class OutputPanel;
+class TaskRunner;
+struct TaskOutcome;
+
+struct MainWindowOptions {
+  /// Where user messages go; a DialogPresenter on this window when null.
+  std::shared_ptr<MessagePresenter> presenter;
+  /// Restore and save geometry, dock layout and recent sessions (QSettings).
+  bool remember_window_state = true;
+  /// Where the bundled sample session is copied before it is opened (it is
+  /// read-only once installed); the user's data location when empty.
+  QString sample_work_folder;
+};
+
+class MainWindow : public QMainWindow {
+  Q_OBJECT
+ public:
+  explicit MainWindow(MainWindowOptions options = {}, QWidget* parent = nullptr);
+  ~MainWindow() override;
+
+  /// Opens a session folder; false (and a message saying what to do) on failure.
+  bool openSession(const QString& folder);
+  /// Opens a working copy of the bundled sample session.
+  bool openSampleSession();
+  bool createSession(const QString& folder);
+  bool saveSession();
+  /// Copies the session folder to `folder` (must not exist or be empty) and opens the copy.
+  bool saveSessionAs(const QString& folder);
+  [[nodiscard]] bool hasSession() const { return session_ != nullptr; }
+  [[nodiscard]] QString sessionFolder() const;
+  /// The session's state as last saved (a copy; safe while a task runs).
+  [[nodiscard]] nlohmann::json sessionState() const;
+
+  /// Starts a workflow step on the worker; false when refused (no session,
+  /// another task running), with a message.
+  bool runStep(const QString& step, const nlohmann::json& params = nlohmann::json::object());
+  /// Reads `path` on the worker, checks it, copies it into the session and shows it.
+  bool importFile(ImportKind kind, const QString& path);
+  /// Pivot calibration from a CSV of tracker_T_marker poses.
+  bool runPivotCalibration(const QString& pose_csv);
+  void cancelTask();
+  [[nodiscard]] bool taskRunning() const;
+
+  bool startHologramStream(int port);
+  void stopHologramStream();
+  [[nodiscard]] bool hologramStreaming() const { return streamer_ != nullptr; }
+
+  /// Renders the whole window (3D view included) into a PNG.
+  bool saveScreenshot(const QString& png);
+  [[nodiscard]] QStringList recentSessions() const;
+
+  OutputPanel* outputPanel() const { return output_; }
+  PreparationPanel* preparationPanel() const { return preparation_; }
+  FunctionPanel* functionPanel() const { return function_; }
+  DisplayArea* displayArea() const { return display_; }
+  TaskRunner* taskRunner() const { return tasks_; }
+
+ signals:
+  void sessionOpened(const QString& folder);
+  void taskFinished(const QString& name, bool ok);
+
+ protected:
+  void closeEvent(QCloseEvent* event) override;
+
+ private:
+  void buildMenus();
+  void buildStatusBar();
+  void restoreWindowState();
+  void rememberSession(const QString& folder);
+  void refreshRecentMenu();
+  void showSession();
+  void populateScene();
+  void onTaskStarted(const QString& name);
+  void onTaskProgress(const QString& name, double fraction, const QString& message);
+  void onTaskFinished(const QString& name, const TaskOutcome& outcome);
+  void setStepState(const QString& step, StepState state, const QString& detail);
+  void recordImport(const std::string& record, const TaskOutcome& outcome);
+  void presentError(const QString& title, const QString& text);
+  void presentInfo(const QString& title, const QString& text);
+  bool refuseWhileBusy(const QString& what);
+  void chooseAndOpenSession();
+  void chooseAndCreateSession();
+  void chooseAndSaveSessionAs();
+  void chooseAndImport(ImportKind kind);
+  void chooseAndRunPivot();
+  void showShortcuts();
+
+  MainWindowOptions options_;
+  std::shared_ptr<MessagePresenter> presenter_;
+  std::unique_ptr<workflow::Session> session_;
+  std::map<std::string, TriangleMesh> meshes_;  // what the scene shows, for the hologram stream
+  PreparationPanel* preparation_ = nullptr;
+  FunctionPanel* function_ = nullptr;
+  OutputPanel* output_ = nullptr;
+  DisplayArea* display_ = nullptr;
+  TaskRunner* tasks_ = nullptr;
+  QDockWidget* preparation_dock_ = nullptr;
+  QDockWidget* function_dock_ = nullptr;
+  QDockWidget* output_dock_ = nullptr;
+  QProgressBar* progress_ = nullptr;
+  QPushButton* cancel_ = nullptr;
+  QLabel* task_label_ = nullptr;
+  QLabel* session_status_ = nullptr;
+  QMenu* recent_menu_ = nullptr;
+  std::unique_ptr<igtlink::Server> stream_server_;
+  std::unique_ptr<tracking::HologramStreamer> streamer_;
+};
+
+/// The style sheet of the workstation (dark, high contrast read-outs).
+QString workstationStyleSheet();
+
+}  // namespace mrsns::gui

@@ -1,0 +1,305 @@
+#include "output_panel.h"
+
+#include <QGridLayout>
+#include <QGroupBox>
+#include <QHeaderView>
+#include <QLabel>
+#include <QTabWidget>
+#include <QTreeWidget>
+#include <QVBoxLayout>
+#include <QVariant>
+#include <cmath>
+
+#include "plot_widget.h"
+
+namespace mrsns::gui {
+namespace {
+
+const QColor kBlue(0x4f, 0xa3, 0xe0);
+const QColor kGreen(0x5c, 0xc4, 0x8a);
+const QColor kOrange(0xe8, 0xa0, 0x48);
+const QColor kViolet(0xb0, 0x8c, 0xe8);
+
+bool contains(const std::string& s, const char* what) {
+  return s.find(what) != std::string::npos;
+}
+
+QString unitOf(const std::string& key) {
+  auto ends = [&](const char* suffix) {
+    const std::string sfx(suffix);
+    return key.size() >= sfx.size() && key.compare(key.size() - sfx.size(), sfx.size(), sfx) == 0;
+  };
+  if (ends("_mm")) return QStringLiteral(" mm");
+  if (ends("_deg")) return QStringLiteral("°");
+  if (ends("_ms")) return QStringLiteral(" ms");
+  if (ends("_s")) return QStringLiteral(" s");
+  if (ends("_px")) return QStringLiteral(" px");
+  if (ends("_hz")) return QStringLiteral(" Hz");
+  return {};
+}
+
+std::vector<double> numbers(const nlohmann::json& array) {
+  std::vector<double> v;
+  if (!array.is_array()) return v;
+  v.reserve(array.size());
+  for (const auto& e : array) {
+    if (e.is_number()) {
+      v.push_back(e.get<double>());
+    } else if (e.is_null()) {
+      v.push_back(std::nan(""));
+    } else {
+      return {};  // not a numeric series
+    }
+  }
+  return v;
+}
+
+std::vector<double> indices(std::size_t n) {
+  std::vector<double> x(n);
+  for (std::size_t i = 0; i < n; ++i) x[i] = static_cast<double>(i);
+  return x;
+}
+
+/// First scalar figure whose key contains one of `needles` (in order of preference).
+const nlohmann::json* findScalar(const nlohmann::json& figures, std::initializer_list<const char*> needles,
+                                 std::string* key_out) {
+  if (!figures.is_object()) return nullptr;
+  for (const char* needle : needles) {
+    for (auto it = figures.begin(); it != figures.end(); ++it) {
+      if (contains(it.key(), needle) && (it->is_number() || it->is_string() || it->is_boolean())) {
+        *key_out = it.key();
+        return &*it;
+      }
+    }
+  }
+  return nullptr;
+}
+
+}  // namespace
+
+QString formatFigure(const std::string& key, const nlohmann::json& value) {
+  if (value.is_number_float()) {
+    const double v = value.get<double>();
+    if (!std::isfinite(v)) return QStringLiteral("—");
+    const double a = std::abs(v);
+    const int decimals = a >= 100 ? 1 : a >= 1 ? 2 : 3;
+    return QString::number(v, 'f', decimals) + unitOf(key);
+  }
+  if (value.is_number()) return QString::number(value.get<long long>()) + unitOf(key);
+  if (value.is_boolean()) return value.get<bool>() ? QStringLiteral("yes") : QStringLiteral("no");
+  if (value.is_string()) return QString::fromStdString(value.get<std::string>());
+  if (value.is_array()) return QStringLiteral("[%1 values]").arg(value.size());
+  if (value.is_null()) return QStringLiteral("—");
+  return QString::fromStdString(value.dump());
+}
+
+OutputPanel::OutputPanel(QWidget* parent) : QWidget(parent) {
+  auto* layout = new QVBoxLayout(this);
+  layout->setContentsMargins(6, 6, 6, 6);
+
+  auto* headline = new QGroupBox(tr("Navigation parameters"), this);
+  auto* grid = new QGridLayout(headline);
+  grid->setHorizontalSpacing(12);
+  const std::pair<const char*, QString> rows[] = {
+      {"fre", tr("Registration FRE")},
+      {"tre", tr("Registration TRE")},
+      {"pivot", tr("Pivot calibration")},
+      {"us_calibration", tr("US spatial calibration")},
+      {"temporal_offset", tr("US temporal offset")},
+      {"robot", tr("Robot calibration")},
+      {"hmd", tr("HMD calibration")},
+      {"tip_to_tissue", tr("Drill tip → soft tissue")},
+      {"supervisor", tr("Supervisor")},
+      {"latency", tr("Latency")},
+  };
+  int row = 0;
+  for (const auto& [key, title] : rows) {
+    auto* name = new QLabel(title, headline);
+    name->setObjectName(QStringLiteral("readoutName"));
+    auto* value = new QLabel(QStringLiteral("—"), headline);
+    value->setObjectName(QStringLiteral("output_") + key);
+    value->setProperty("severity", 0);
+    value->setAlignment(Qt::AlignRight | Qt::AlignVCenter);
+    value->setTextInteractionFlags(Qt::TextSelectableByMouse);
+    grid->addWidget(name, row, 0);
+    grid->addWidget(value, row, 1);
+    readouts_[QString::fromLatin1(key)] = value;
+    ++row;
+  }
+  grid->setColumnStretch(1, 1);
+  layout->addWidget(headline);
+
+  plots_ = new QTabWidget(this);
+  plots_->setObjectName(QStringLiteral("outputPlots"));
+  auto makePlot = [&](const char* object_name, const QString& tab, const QString& title, const QString& x,
+                      const QString& y) {
+    auto* plot = new PlotWidget(plots_);
+    plot->setObjectName(QString::fromLatin1(object_name));
+    plot->setTitle(title);
+    plot->setAxisLabels(x, y);
+    plots_->addTab(plot, tab);
+    return plot;
+  };
+  residual_plot_ =
+      makePlot("plotResiduals", tr("Residuals"), tr("Calibration residual per frame"), tr("frame"), tr("mm"));
+  latency_plot_ = makePlot("plotLatency", tr("Latency"), tr("Tracking → hologram latency"), tr("ms"), tr("count"));
+  deformation_plot_ =
+      makePlot("plotDeformation", tr("Deformation"), tr("Soft-tissue model error over time"), tr("time (s)"), tr("mm"));
+  distance_plot_ = makePlot("plotDistance", tr("Distance"), tr("Drill tip to soft tissue"), tr("time (s)"), tr("mm"));
+  plots_->setMinimumHeight(200);
+  layout->addWidget(plots_, 1);
+
+  auto* figures = new QGroupBox(tr("All step figures"), this);
+  auto* figures_layout = new QVBoxLayout(figures);
+  tree_ = new QTreeWidget(figures);
+  tree_->setObjectName(QStringLiteral("outputFigures"));
+  tree_->setColumnCount(2);
+  tree_->setHeaderLabels({tr("Step / figure"), tr("Value")});
+  tree_->header()->setSectionResizeMode(0, QHeaderView::ResizeToContents);
+  tree_->setRootIsDecorated(true);
+  tree_->setAlternatingRowColors(true);
+  figures_layout->addWidget(tree_);
+  layout->addWidget(figures, 1);
+}
+
+QString OutputPanel::readout(const QString& key) const {
+  const auto it = readouts_.find(key);
+  return it == readouts_.end() ? QString() : it->second->text();
+}
+
+void OutputPanel::setReadout(const QString& key, const QString& text, int severity) {
+  const auto it = readouts_.find(key);
+  if (it == readouts_.end()) return;
+  it->second->setText(text);
+  // The style sheet colours read-outs by this property (0 normal, 1 warn, 2 alarm).
+  it->second->setProperty("severity", severity);
+  it->second->style()->unpolish(it->second);
+  it->second->style()->polish(it->second);
+}
+
+void OutputPanel::clear() {
+  for (auto& [key, label] : readouts_) setReadout(key, QStringLiteral("—"));
+  tree_->clear();
+  residual_plot_->clear();
+  latency_plot_->clear();
+  deformation_plot_->clear();
+  distance_plot_->clear();
+  latencies_ms_.clear();
+}
+
+void OutputPanel::showSessionState(const nlohmann::json& state) {
+  clear();
+  if (!state.is_object() || !state.contains("steps") || !state["steps"].is_object()) return;
+  for (const auto& [step, record] : state["steps"].items()) {
+    const std::string status = record.is_object() && record.contains("status") && record["status"].is_string()
+                                   ? record["status"].get<std::string>()
+                                   : std::string();
+    const nlohmann::json figures =
+        record.is_object() && record.contains("figures") ? record["figures"] : nlohmann::json::object();
+    showStepResult(step, status, figures);
+  }
+}
+
+void OutputPanel::showStepResult(const std::string& step, const std::string& status, const nlohmann::json& figures) {
+  const QString step_name = QString::fromStdString(step);
+  QTreeWidgetItem* item = nullptr;
+  for (int i = 0; i < tree_->topLevelItemCount(); ++i) {
+    if (tree_->topLevelItem(i)->data(0, Qt::UserRole).toString() == step_name) item = tree_->topLevelItem(i);
+  }
+  if (item == nullptr) {
+    item = new QTreeWidgetItem(tree_);
+    item->setData(0, Qt::UserRole, step_name);
+  }
+  qDeleteAll(item->takeChildren());
+  item->setText(0, step_name);
+  item->setText(1, QString::fromStdString(status));
+  if (figures.is_object()) {
+    for (auto it = figures.begin(); it != figures.end(); ++it) {
+      auto* child = new QTreeWidgetItem(item);
+      child->setText(0, QString::fromStdString(it.key()));
+      child->setText(1, formatFigure(it.key(), *it));
+    }
+  }
+  item->setExpanded(true);
+  headlineFromFigures(step, figures);
+  plotsFromFigures(step, figures);
+}
+
+void OutputPanel::headlineFromFigures(const std::string& step, const nlohmann::json& figures) {
+  std::string key;
+  auto show = [&](const QString& readout, std::initializer_list<const char*> needles) {
+    if (const auto* v = findScalar(figures, needles, &key)) setReadout(readout, formatFigure(key, *v));
+  };
+  if (contains(step, "registration") && !contains(step, "calibration")) {
+    show(QStringLiteral("fre"), {"fre"});
+    show(QStringLiteral("tre"), {"tre"});
+  }
+  if (contains(step, "pivot")) show(QStringLiteral("pivot"), {"rms", "error", "residual"});
+  if (contains(step, "us-spatial")) show(QStringLiteral("us_calibration"), {"rms", "error", "residual"});
+  if (contains(step, "us-temporal")) show(QStringLiteral("temporal_offset"), {"offset", "lag", "delay"});
+  if (contains(step, "robot-calibration")) show(QStringLiteral("robot"), {"rms", "error", "residual"});
+  if (contains(step, "hmd")) show(QStringLiteral("hmd"), {"rms", "error", "residual"});
+  show(QStringLiteral("tip_to_tissue"), {"tissue", "tip_distance"});
+  show(QStringLiteral("latency"), {"latency"});
+  if (const auto* v = findScalar(figures, {"supervisor"}, &key)) {
+    const QString text = formatFigure(key, *v);
+    const bool ok = text.compare(QStringLiteral("ok"), Qt::CaseInsensitive) == 0 ||
+                    text.compare(QStringLiteral("running"), Qt::CaseInsensitive) == 0;
+    setSupervisorState(text, ok);
+  }
+}
+
+void OutputPanel::plotsFromFigures(const std::string& step, const nlohmann::json& figures) {
+  if (!figures.is_object()) return;
+  const QString name = QString::fromStdString(step);
+  // A figure "<key>_time_s" (or "time_s") of equal length gives the x axis.
+  auto xFor = [&](const std::string& key, std::size_t n) {
+    for (const std::string& candidate : {key + "_time_s", std::string("time_s"), std::string("times_s")}) {
+      if (figures.contains(candidate)) {
+        auto x = numbers(figures[candidate]);
+        if (x.size() == n) return x;
+      }
+    }
+    return indices(n);
+  };
+  for (auto it = figures.begin(); it != figures.end(); ++it) {
+    const std::string& key = it.key();
+    const auto y = numbers(*it);
+    if (y.empty() || contains(key, "time_s")) continue;
+    if (contains(key, "latenc")) {
+      latencies_ms_ = y;
+      latency_plot_->setHistogram(y, 20, kViolet);
+    } else if (contains(key, "residual")) {
+      residual_plot_->setSeries(name, indices(y.size()), y, contains(step, "temporal") ? kOrange : kBlue);
+    } else if (contains(key, "tissue") || contains(key, "distance")) {
+      distance_plot_->setSeries(name, xFor(key, y.size()), y, kGreen);
+    } else if (contains(key, "deformation") || contains(key, "error_over_time") || contains(key, "model_error")) {
+      deformation_plot_->setSeries(name, xFor(key, y.size()), y, kOrange);
+    }
+  }
+}
+
+void OutputPanel::showLiveSample(double time_s, double tip_to_tissue_mm, double latency_ms,
+                                 const QString& supervisor_state) {
+  if (std::isfinite(tip_to_tissue_mm)) {
+    setReadout(QStringLiteral("tip_to_tissue"), QString::number(tip_to_tissue_mm, 'f', 2) + QStringLiteral(" mm"),
+               tip_to_tissue_mm < 2.0   ? 2
+               : tip_to_tissue_mm < 5.0 ? 1
+                                        : 0);
+    distance_plot_->appendPoint(QStringLiteral("live"), time_s, tip_to_tissue_mm, kGreen);
+  }
+  if (std::isfinite(latency_ms)) {
+    setReadout(QStringLiteral("latency"), QString::number(latency_ms, 'f', 1) + QStringLiteral(" ms"),
+               latency_ms > 100.0 ? 1 : 0);
+    latencies_ms_.push_back(latency_ms);
+    if (latencies_ms_.size() > 5000) latencies_ms_.erase(latencies_ms_.begin());
+    latency_plot_->setHistogram(latencies_ms_, 20, kViolet);
+  }
+  if (!supervisor_state.isEmpty()) setSupervisorState(supervisor_state, supervisor_state == QStringLiteral("ok"));
+}
+
+void OutputPanel::setSupervisorState(const QString& state, bool ok) {
+  setReadout(QStringLiteral("supervisor"), state, ok ? 0 : 2);
+}
+
+}  // namespace mrsns::gui

@@ -1,0 +1,87 @@
+#include "preparation_panel.h"
+
+#include <QGridLayout>
+#include <QGroupBox>
+#include <QLabel>
+#include <QPushButton>
+#include <QVBoxLayout>
+
+namespace mrsns::gui {
+
+PreparationPanel::PreparationPanel(QWidget* parent) : QWidget(parent) {
+  auto* layout = new QVBoxLayout(this);
+  layout->setContentsMargins(6, 6, 6, 6);
+  layout->setSpacing(8);
+
+  auto* session = new QGroupBox(tr("Session"), this);
+  auto* session_layout = new QVBoxLayout(session);
+  session_label_ = new QLabel(tr("no session open"), session);
+  session_label_->setObjectName(QStringLiteral("sessionLabel"));
+  session_label_->setWordWrap(true);
+  session_label_->setTextInteractionFlags(Qt::TextSelectableByMouse);
+  session_layout->addWidget(session_label_);
+  layout->addWidget(session);
+
+  auto* import = new QGroupBox(tr("Data import"), this);
+  auto* grid = new QGridLayout(import);
+  const std::tuple<ImportKind, const char*, QString, QString> imports[] = {
+      {ImportKind::CtImage, "importCt", tr("CT image…"), tr("NRRD, NIfTI, MetaImage or DICOM")},
+      {ImportKind::Mesh, "importMesh", tr("Surface mesh…"), tr("STL, VTP, VTK, OBJ or PLY")},
+      {ImportKind::Landmarks, "importLandmarks", tr("Landmarks…"), tr("Slicer markups JSON, FCSV or CSV")},
+      {ImportKind::Sequence, "importSequence", tr("Sequence…"), tr("PLUS sequence (.seq.nrrd, .mha)")},
+  };
+  int i = 0;
+  for (const auto& [kind, name, text, tip] : imports) {
+    auto* button = new QPushButton(text, import);
+    button->setObjectName(QString::fromLatin1(name));
+    button->setToolTip(tip);
+    grid->addWidget(button, i / 2, i % 2);
+    import_buttons_.push_back(button);
+    connect(button, &QPushButton::clicked, this, [this, k = kind] { emit importRequested(k); });
+    ++i;
+  }
+  layout->addWidget(import);
+
+  devices_ = new StepList(tr("Devices"), this);
+  registration_ = new StepList(tr("Registration"), this);
+  calibration_ = new StepList(tr("Calibration"), this);
+  auto* pivot = new QPushButton(tr("Pivot calibration…"), calibration_);
+  pivot->setObjectName(QStringLiteral("pivotCalibration"));
+  pivot->setToolTip(tr("Tip offset of a tracked pointer from a pose file (CSV) recorded while pivoting"));
+  static_cast<QGridLayout*>(calibration_->layout())->addWidget(pivot, 0, 0);
+  import_buttons_.push_back(pivot);
+  connect(pivot, &QPushButton::clicked, this, &PreparationPanel::pivotCalibrationRequested);
+  for (auto* list : {devices_, registration_, calibration_}) {
+    layout->addWidget(list);
+    connect(list, &StepList::runRequested, this, &PreparationPanel::runStepRequested);
+  }
+  devices_->hide();
+  layout->addStretch(1);
+}
+
+void PreparationPanel::setSteps(const std::vector<StepEntry>& steps) {
+  for (const auto& step : steps) {
+    if (step.area != QLatin1String("preparation")) continue;
+    StepList* list = step.name.contains(QLatin1String("calibration"))    ? calibration_
+                     : step.name.contains(QLatin1String("registration")) ? registration_
+                                                                         : devices_;
+    if (list->hasStep(step.name)) continue;
+    list->addStep(step);
+    list->show();
+  }
+}
+
+void PreparationPanel::setSessionText(const QString& text) {
+  session_label_->setText(text);
+}
+
+void PreparationPanel::setStepState(const QString& step, StepState state, const QString& detail) {
+  for (auto* list : {devices_, registration_, calibration_}) list->setStepState(step, state, detail);
+}
+
+void PreparationPanel::setBusy(bool busy) {
+  for (auto* list : {devices_, registration_, calibration_}) list->setBusy(busy);
+  for (auto* button : import_buttons_) button->setEnabled(!busy);
+}
+
+}  // namespace mrsns::gui

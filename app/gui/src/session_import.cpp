@@ -1,0 +1,243 @@
+#include "session_import.h"
+
+#include <algorithm>
+#include <set>
+
+#include "mrsns/core/error.h"
+#include "mrsns/core/log.h"
+#include "mrsns/io/file_names.h"
+#include "mrsns/io/image_io.h"
+#include "mrsns/io/landmarks_io.h"
+#include "mrsns/io/mesh_io.h"
+#include "mrsns/io/pose_csv.h"
+#include "mrsns/io/screw_path_io.h"
+#include "mrsns/io/sequence_file.h"
+#include "mrsns/registration/pivot_calibration.h"
+#include "mrsns/rendering/scene.h"
+#include "mrsns/rendering/slice_views.h"
+#include "mrsns/workflow/session.h"
+
+namespace mrsns::gui {
+namespace fs = std::filesystem;
+
+namespace {
+
+bool isMeshFile(const fs::path& p) {
+  const std::string name = io::lowerFileName(p);
+  for (const char* ext : {".stl", ".vtp", ".vtk", ".obj", ".ply"}) {
+    if (io::endsWith(name, ext)) return true;
+  }
+  return false;
+}
+
+bool isSequenceFile(const fs::path& p) {
+  const std::string name = io::lowerFileName(p);
+  return io::endsWith(name, ".seq.nrrd") || io::endsWith(name, ".seq.mha") || io::endsWith(name, ".seq.mhd");
+}
+
+bool isVolumeFile(const fs::path& p) {
+  if (isSequenceFile(p)) return false;
+  const std::string name = io::lowerFileName(p);
+  for (const char* ext : {".nrrd", ".nhdr", ".nii", ".nii.gz", ".mha", ".mhd"}) {
+    if (io::endsWith(name, ext)) return true;
+  }
+  return false;
+}
+
+bool isSoftTissue(const std::string& lower_name) {
+  for (const char* word : {"tissue", "soft", "skin", "muscle", "vessel", "artery", "posterior", "shape"}) {
+    if (lower_name.find(word) != std::string::npos) return true;
+  }
+  return false;
+}
+
+/// Every string in the state (recursively), in document order without repeats.
+void collectStrings(const nlohmann::json& j, std::vector<std::string>& out, std::set<std::string>& seen) {
+  if (j.is_string()) {
+    const auto& s = j.get_ref<const std::string&>();
+    if (!s.empty() && s.size() < 1024 && seen.insert(s).second) out.push_back(s);
+  } else if (j.is_structured()) {
+    for (const auto& e : j) collectStrings(e, out, seen);
+  }
+}
+
+void report(const TaskControl& control, double fraction, const std::string& message) {
+  if (control.progress) control.progress(fraction, message);
+}
+
+}  // namespace
+
+QString importFileFilter(ImportKind kind) {
+  switch (kind) {
+    case ImportKind::CtImage:
+      return QStringLiteral("Images (*.nrrd *.nhdr *.nii *.nii.gz *.mha *.mhd *.dcm);;All files (*)");
+    case ImportKind::Mesh: return QStringLiteral("Meshes (*.stl *.vtp *.vtk *.obj *.ply);;All files (*)");
+    case ImportKind::Landmarks: return QStringLiteral("Landmarks (*.json *.fcsv *.csv *.txt);;All files (*)");
+    case ImportKind::Sequence: return QStringLiteral("PLUS sequences (*.seq.nrrd *.seq.mha *.mha);;All files (*)");
+  }
+  return QStringLiteral("All files (*)");
+}
+
+std::string importRecordName(ImportKind kind) {
+  switch (kind) {
+    case ImportKind::CtImage: return "import-ct";
+    case ImportKind::Mesh: return "import-mesh";
+    case ImportKind::Landmarks: return "import-landmarks";
+    case ImportKind::Sequence: return "import-sequence";
+  }
+  return "import";
+}
+
+TaskOutcome importIntoSession(ImportKind kind, const fs::path& file, const fs::path& session_folder,
+                              const TaskControl& control) {
+  if (!fs::is_regular_file(file)) {
+    throw FileError("Import: '" + file.string() + "' is not a readable file. Choose an existing file.");
+  }
+  TaskOutcome outcome;
+  report(control, 0.1, "reading " + file.filename().string());
+  auto& f = outcome.figures;
+  switch (kind) {
+    case ImportKind::CtImage: {
+      const auto read = io::readImageFile(file);
+      f["size_px"] = {read.image.size[0], read.image.size[1], read.image.size[2]};
+      f["spacing_mm"] = {read.image.spacing.x(), read.image.spacing.y(), read.image.spacing.z()};
+      f["format"] = io::imageFormatName(read.format);
+      break;
+    }
+    case ImportKind::Mesh: {
+      const auto mesh = io::readMesh(file);
+      f["vertices"] = mesh.vertexCount();
+      f["triangles"] = mesh.faceCount();
+      break;
+    }
+    case ImportKind::Landmarks: {
+      const auto read = io::readLandmarksFile(file);
+      f["points"] = read.landmarks.size();
+      break;
+    }
+    case ImportKind::Sequence: {
+      const auto sequence = io::readSequenceHeader(file);
+      f["frames"] = sequence.frames.size();
+      f["transforms"] = sequence.transformNames();
+      break;
+    }
+  }
+  if (control.cancel && control.cancel->load()) {
+    outcome.summary = QStringLiteral("import cancelled");
+    return outcome;
+  }
+  report(control, 0.7, "copying into the session");
+  const fs::path relative = fs::path("imported") / file.filename();
+  const fs::path target = session_folder / relative;
+  std::error_code ec;
+  fs::create_directories(target.parent_path(), ec);
+  if (fs::weakly_canonical(file, ec) != fs::weakly_canonical(target, ec)) {
+    fs::copy_file(file, target, fs::copy_options::overwrite_existing, ec);
+    if (ec) {
+      throw FileError("Import: copying '" + file.string() + "' to '" + target.string() + "' failed (" + ec.message() +
+                      "). Check the session folder's permissions and free space.");
+    }
+  }
+  outcome.ok = true;
+  outcome.outputs.push_back(relative.generic_string());
+  outcome.summary = QString::fromStdString("imported " + file.filename().string());
+  report(control, 1.0, "done");
+  return outcome;
+}
+
+TaskOutcome pivotFromPoseFile(const fs::path& pose_csv, const TaskControl& control) {
+  report(control, 0.1, "reading " + pose_csv.filename().string());
+  const auto poses = io::readPoseCsv(pose_csv);
+  report(control, 0.4, "calibrating");
+  const auto result = registration::calibratePivot(poses.poses);
+  TaskOutcome outcome;
+  outcome.ok = true;
+  auto& f = outcome.figures;
+  f["pivot_rms_mm"] = result.rms_mm;
+  f["max_residual_mm"] = result.max_residual_mm;
+  f["tip_marker_mm"] = {result.tip_marker.x(), result.tip_marker.y(), result.tip_marker.z()};
+  f["inliers"] = result.inlier_count;
+  f["poses"] = poses.poses.size();
+  f["rotation_range_deg"] = result.rotation_range * 180.0 / M_PI;
+  f["condition_number"] = result.condition_number;
+  f["residuals_mm"] = result.residuals_mm;
+  outcome.summary = QStringLiteral("pivot calibration: RMS %1 mm over %2 poses")
+                        .arg(result.rms_mm, 0, 'f', 3)
+                        .arg(result.inlier_count);
+  report(control, 1.0, "done");
+  return outcome;
+}
+
+std::map<std::string, TriangleMesh> loadSessionScene(const workflow::Session& session, rendering::Scene& scene,
+                                                     rendering::SliceViews& slices) {
+  std::vector<std::string> strings;
+  std::set<std::string> seen;
+  collectStrings(session.state(), strings, seen);
+  std::map<std::string, TriangleMesh> meshes;
+  std::vector<std::string> problems;
+  bool have_volume = false;
+  int path_index = 0;
+  for (const auto& s : strings) {
+    fs::path file;
+    std::error_code ec;
+    try {
+      file = session.resolve(s);
+    } catch (const mrsns::Error&) {
+      continue;  // not a path inside the session
+    }
+    if (!fs::is_regular_file(file, ec)) continue;
+    const std::string lower = io::lowerFileName(file);
+    try {
+      if (isMeshFile(file)) {
+        TriangleMesh mesh = io::readMesh(file);
+        const bool tissue = isSoftTissue(lower);
+        const std::string name = (tissue ? "tissue:" : "vertebra:") + file.stem().string();
+        scene.setMesh(name, mesh, tissue ? Eigen::Vector3d(0.85, 0.45, 0.42) : Eigen::Vector3d(0.93, 0.89, 0.80),
+                      tissue ? 0.45 : 1.0);
+        meshes[name] = std::move(mesh);
+      } else if (!have_volume && isVolumeFile(file) && lower.find("label") == std::string::npos) {
+        slices.setVolume(io::readImage(file));
+        have_volume = true;
+      } else if (io::endsWith(lower, ".mrk.json")) {
+        // Screw plans are Line markups; fiducial markups are not drawn.
+        std::vector<io::MarkupsLine> lines;
+        try {
+          lines = io::readMarkupsLines(file);
+        } catch (const FormatError&) {
+          continue;
+        }
+        for (const auto& line : lines) {
+          scene.setScrewPath("path:" + (line.name.empty() ? std::to_string(path_index) : line.name), line.start,
+                             line.end, 3.5, Eigen::Vector3d(0.30, 0.75, 0.95));
+          ++path_index;
+        }
+      }
+    } catch (const mrsns::Error& e) {
+      problems.push_back(e.what());
+    }
+  }
+  if (!problems.empty()) {
+    std::string text = "The session refers to files that could not be shown:";
+    for (const auto& p : problems) text += "\n- " + p;
+    text += "\nThe rest of the session is usable; re-import or regenerate these files.";
+    throw FormatError(text);
+  }
+  return meshes;
+}
+
+void applyLayerVisibility(rendering::Scene& scene, DisplayLayer layer, bool visible) {
+  const char* prefix = "";
+  switch (layer) {
+    case DisplayLayer::Vertebrae: prefix = "vertebra:"; break;
+    case DisplayLayer::SoftTissue: prefix = "tissue:"; break;
+    case DisplayLayer::PlannedPaths: prefix = "path:"; break;
+    case DisplayLayer::Tools: prefix = "tool:"; break;
+    case DisplayLayer::Ultrasound: prefix = "us:"; break;
+    case DisplayLayer::SliceViews: return;
+  }
+  for (const auto& name : scene.names()) {
+    if (name.rfind(prefix, 0) == 0) scene.setVisible(name, visible);
+  }
+}
+
+}  // namespace mrsns::gui

@@ -1,0 +1,59 @@
+#include "step_list.h"
+
+#include <QGridLayout>
+#include <QLabel>
+#include <QPushButton>
+#include <QStyle>
+#include <QVariant>
+
+namespace mrsns::gui {
+
+StepList::StepList(const QString& title, QWidget* parent) : QGroupBox(title, parent) {
+  auto* grid = new QGridLayout(this);
+  grid->setColumnStretch(1, 1);
+  grid->setVerticalSpacing(4);
+}
+
+QPushButton* StepList::addStep(const StepEntry& step) {
+  auto* grid = static_cast<QGridLayout*>(layout());
+  const int row = grid->rowCount();
+  auto* button = new QPushButton(step.title, this);
+  button->setObjectName(QStringLiteral("step_") + step.name);
+  button->setToolTip(step.description.isEmpty() ? tr("Run the step \"%1\" on the open session").arg(step.name)
+                                                : step.description);
+  button->setMinimumWidth(150);
+  auto* status = new QLabel(tr("not run"), this);
+  status->setObjectName(QStringLiteral("status_") + step.name);
+  status->setProperty("stepState", QStringLiteral("none"));
+  grid->addWidget(button, row, 0);
+  grid->addWidget(status, row, 1);
+  rows_[step.name] = Row{button, status};
+  connect(button, &QPushButton::clicked, this, [this, name = step.name] { emit runRequested(name); });
+  return button;
+}
+
+void StepList::setStepState(const QString& name, StepState state, const QString& detail) {
+  const auto it = rows_.find(name);
+  if (it == rows_.end()) return;
+  QLabel* label = it->second.status;
+  QString text, property;
+  switch (state) {
+    case StepState::NotRun: text = tr("not run"), property = QStringLiteral("none"); break;
+    case StepState::Running: text = tr("running…"), property = QStringLiteral("running"); break;
+    case StepState::Done: text = tr("✓ done"), property = QStringLiteral("done"); break;
+    case StepState::Failed: text = tr("✗ failed"), property = QStringLiteral("failed"); break;
+    case StepState::Cancelled: text = tr("cancelled"), property = QStringLiteral("failed"); break;
+  }
+  if (!detail.isEmpty()) text += QStringLiteral("  ") + detail;
+  label->setText(text);
+  label->setToolTip(detail);
+  label->setProperty("stepState", property);
+  label->style()->unpolish(label);
+  label->style()->polish(label);
+}
+
+void StepList::setBusy(bool busy) {
+  for (auto& [name, row] : rows_) row.button->setEnabled(!busy);
+}
+
+}  // namespace mrsns::gui

@@ -1,0 +1,82 @@
+#include <gtest/gtest.h>
+
+#include <QLabel>
+#include <QTreeWidget>
+#include <cmath>
+#include <numeric>
+
+#include "gui_test_app.h"
+#include "output_panel.h"
+#include "plot_widget.h"
+
+using mrsns::gui::formatFigure;
+using mrsns::gui::OutputPanel;
+
+TEST(OutputPanel, FormatsFiguresWithTheUnitOfTheirSuffix) {
+  EXPECT_EQ(formatFigure("fre_mm", 0.41234), QStringLiteral("0.412 mm"));
+  EXPECT_EQ(formatFigure("angle_deg", 12.345), QStringLiteral("12.35°"));
+  EXPECT_EQ(formatFigure("offset_s", -0.0123), QStringLiteral("-0.012 s"));
+  EXPECT_EQ(formatFigure("latency_ms", 123.45), QStringLiteral("123.5 ms"));
+  EXPECT_EQ(formatFigure("frames", 42), QStringLiteral("42"));
+  EXPECT_EQ(formatFigure("ok", true), QStringLiteral("yes"));
+  EXPECT_EQ(formatFigure("state", "halted"), QStringLiteral("halted"));
+  EXPECT_EQ(formatFigure("list", nlohmann::json::array({1, 2, 3})), QStringLiteral("[3 values]"));
+  EXPECT_EQ(formatFigure("nan_mm", std::nan("")), QStringLiteral("—"));
+}
+
+TEST(OutputPanel, StepFiguresReachReadoutsTreeAndPlots) {
+  mrsns::test::guiApp();
+  OutputPanel panel;
+  EXPECT_EQ(panel.readout("fre"), QStringLiteral("—"));
+  panel.showStepResult("registration", "ok", {{"fre_mm", 0.5}, {"tre_mm", 1.25}, {"points", 6}});
+  EXPECT_EQ(panel.readout("fre"), QStringLiteral("0.500 mm"));
+  EXPECT_EQ(panel.readout("tre"), QStringLiteral("1.25 mm"));
+  // Another step's "rms" must not overwrite the registration read-outs.
+  panel.showStepResult("us-spatial-calibration", "ok", {{"rms_mm", 0.8}, {"residuals_mm", {0.7, 0.9, 0.8, 0.75}}});
+  EXPECT_EQ(panel.readout("fre"), QStringLiteral("0.500 mm"));
+  EXPECT_EQ(panel.readout("us_calibration"), QStringLiteral("0.800 mm"));
+  EXPECT_EQ(panel.residualPlot()->pointCount(), 4u);
+  panel.showStepResult("us-temporal-calibration", "ok", {{"offset_s", -0.05}});
+  EXPECT_EQ(panel.readout("temporal_offset"), QStringLiteral("-0.050 s"));
+
+  auto* tree = panel.findChild<QTreeWidget*>("outputFigures");
+  ASSERT_NE(tree, nullptr);
+  EXPECT_EQ(tree->topLevelItemCount(), 3);
+  // Re-running a step replaces its rows instead of adding a second entry.
+  panel.showStepResult("registration", "ok", {{"fre_mm", 0.4}});
+  EXPECT_EQ(tree->topLevelItemCount(), 3);
+  EXPECT_EQ(panel.readout("fre"), QStringLiteral("0.400 mm"));
+}
+
+TEST(OutputPanel, LiveSamplesColourTheDistanceBySeverity) {
+  mrsns::test::guiApp();
+  OutputPanel panel;
+  panel.showLiveSample(0.0, 8.0, 20.0, "ok");
+  auto* distance = panel.findChild<QLabel*>("output_tip_to_tissue");
+  ASSERT_NE(distance, nullptr);
+  EXPECT_EQ(distance->property("severity").toInt(), 0);
+  panel.showLiveSample(0.1, 1.5, 25.0, "halted: tracking lost");
+  EXPECT_EQ(distance->property("severity").toInt(), 2);
+  EXPECT_EQ(panel.readout("supervisor"), QStringLiteral("halted: tracking lost"));
+  EXPECT_EQ(panel.findChild<QLabel*>("output_supervisor")->property("severity").toInt(), 2);
+  EXPECT_EQ(panel.distancePlot()->pointCount(), 2u);
+  const auto& counts = panel.latencyPlot()->histogramCounts();
+  EXPECT_EQ(std::accumulate(counts.begin(), counts.end(), 0), 2);
+}
+
+TEST(OutputPanel, SessionStateShowsEveryRecordedStep) {
+  mrsns::test::guiApp();
+  OutputPanel panel;
+  const nlohmann::json state = {
+      {"version", 1},
+      {"steps",
+       {{"registration", {{"status", "ok"}, {"figures", {{"fre_mm", 0.3}}}}},
+        {"navigation", {{"status", "ok"}, {"figures", {{"latency_ms", {10.0, 12.0, 11.0}}}}}}}}};
+  panel.showSessionState(state);
+  EXPECT_EQ(panel.readout("fre"), QStringLiteral("0.300 mm"));
+  EXPECT_EQ(panel.findChild<QTreeWidget*>("outputFigures")->topLevelItemCount(), 2);
+  const auto& counts = panel.latencyPlot()->histogramCounts();
+  EXPECT_EQ(std::accumulate(counts.begin(), counts.end(), 0), 3);
+  panel.showSessionState(nlohmann::json::object());  // a fresh session: everything cleared
+  EXPECT_EQ(panel.readout("fre"), QStringLiteral("—"));
+}
