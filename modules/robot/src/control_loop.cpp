@@ -88,8 +88,22 @@ CycleReport ControlLoop::tick(const TrackingSnapshot& tracking, double cycle_tim
     // The drill as the tracker sees it, in the plan frame: independent of the robot's own kinematics.
     const Eigen::Isometry3d plan_T_tip = setup_.patient_T_plan.inverse() * tracking.tracker_T_patient.inverse() *
                                          tracking.tracker_T_drill * marker_T_tip_;
-    in.tip_plan = plan_T_tip.translation();
-    in.axis_plan = plan_T_tip.linear().col(2);
+    const Eigen::Vector3d tip = plan_T_tip.translation(), axis = plan_T_tip.linear().col(2);
+    if (!have_tip_ || options_.measurement_time_constant_s <= 0) {
+      tip_plan_filtered_ = tip;
+      axis_plan_filtered_ = axis;
+      have_tip_ = true;
+    } else if (tracking.drill_timestamp_s != last_drill_timestamp_) {
+      const double dt = std::max(0.0, tracking.drill_timestamp_s - last_drill_timestamp_);
+      const double alpha = 1.0 - std::exp(-dt / options_.measurement_time_constant_s);
+      tip_plan_filtered_ += alpha * (tip - tip_plan_filtered_);
+      axis_plan_filtered_ = (axis_plan_filtered_ + alpha * (axis - axis_plan_filtered_)).normalized();
+    }
+    last_drill_timestamp_ = tracking.drill_timestamp_s;
+    in.tip_plan = tip_plan_filtered_;
+    in.axis_plan = axis_plan_filtered_;
+  } else {
+    have_tip_ = false;  // after a tracking gap the filter restarts from the first new measurement
   }
   in.tip_base = (arm.base_T_flange * setup_.flange_T_tip).translation();
   in.tip_speed_mm_s =

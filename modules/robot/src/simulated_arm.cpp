@@ -204,13 +204,19 @@ void SimulatedArm::step(double dt_s) {
       break;
     }
     case Motion::Servo: {
+      // Fastest approach that can still brake to rest on the target (v = sqrt(2 a |e|)), then one scale for
+      // all joints on the speed and on the acceleration so the joints stay coordinated (the tool keeps its
+      // path instead of the fast wrist running ahead of the slow shoulder).
+      Joints v_want;
       for (int i = 0; i < 6; ++i) {
-        // Fastest approach that can still brake to rest on the target: v = sqrt(2 a |e|), capped.
         const double e = servo_target_[i] - q_[i];
-        const double v_brake = std::sqrt(2.0 * amax[i] * std::abs(e));
-        const double v_want = std::copysign(std::min({std::abs(e) / dt_s, v_brake, vmax[i]}), e);
-        qd_next[i] = qd_[i] + std::clamp(v_want - qd_[i], -amax[i] * dt_s, amax[i] * dt_s);
+        v_want[i] = std::copysign(std::min(std::abs(e) / dt_s, std::sqrt(2.0 * amax[i] * std::abs(e))), e);
       }
+      const double over_v = (v_want.cwiseAbs().array() / vmax.array()).maxCoeff();
+      if (over_v > 1.0) v_want /= over_v;
+      const Joints dv = v_want - qd_;
+      const double over_a = (dv.cwiseAbs().array() / (amax.array() * dt_s)).maxCoeff();
+      qd_next = qd_ + (over_a > 1.0 ? dv / over_a : dv);
       break;
     }
     case Motion::Speed: {

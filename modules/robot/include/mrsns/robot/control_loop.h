@@ -56,6 +56,9 @@ struct ControlLoopOptions {
   bool marker_feedback = true;
   /// Time constant of the filter on the patient's pose in the base (s); tracking noise averages out over it.
   double estimate_time_constant_s = 0.2;
+  /// Low-pass on the tracker-measured drill tip and axis the supervisor checks against the plan, applied
+  /// per new tracker frame (s; 0: raw). Trades detection delay for fewer stops caused by tracking noise.
+  double measurement_time_constant_s = 0.0;
 };
 
 struct CycleReport {
@@ -117,6 +120,9 @@ class ControlLoop {
   Eigen::Isometry3d marker_T_tip_ = Eigen::Isometry3d::Identity();
   Twist hand_ = Twist::Zero();
   ArmState last_arm_;
+  Eigen::Vector3d tip_plan_filtered_ = Eigen::Vector3d::Zero(), axis_plan_filtered_ = Eigen::Vector3d::UnitZ();
+  double last_drill_timestamp_ = -1e300;
+  bool have_tip_ = false;
 };
 
 }  // namespace mrsns::robot

@@ -18,7 +18,7 @@ const char* toString(GuidancePhase phase);
 struct GuidanceOptions {
   double standoff_mm = 20.0;  ///< the approach ends this far before the entry, on the axis
   double approach_speed_mm_s = 40.0;
-  double approach_rotation_speed_rad_s = 0.5;
+  double approach_rotation_speed_rad_s = 0.25;
   double align_tolerance_mm = 0.2;  ///< commanded tip to stand-off point
   double align_tolerance_rad = 0.004;
   int align_settle_cycles = 100;  ///< the tolerance must hold this long (the axis estimate is filtered)

@@ -59,7 +59,7 @@ struct SupervisorLimits {
   Eigen::Vector3d workspace_min_mm = Eigen::Vector3d(-900, -900, -300);  ///< tip box in the robot base
   Eigen::Vector3d workspace_max_mm = Eigen::Vector3d(900, 900, 900);
   double max_tcp_speed_mm_s = 100.0;  ///< drill tip speed limit
-  double max_cycle_time_s = 0.002;  ///< computation time of one cycle before the watchdog trips
+  double max_cycle_time_s = 0.002;    ///< computation time of one cycle before the watchdog trips
   std::uint64_t max_missed_cycles = 2;
   std::uint64_t max_stalled_cycles = 3;  ///< ticks without the robot's cycle counter advancing
   double stop_deceleration_rad_s2 = 15.0;
