@@ -30,7 +30,7 @@ TEST(OutputPanel, StepFiguresReachReadoutsTreeAndPlots) {
   EXPECT_EQ(panel.readout("fre"), QStringLiteral("—"));
   panel.showStepResult("registration", "ok", {{"fre_mm", 0.5}, {"tre_mm", 1.25}, {"points", 6}});
   EXPECT_EQ(panel.readout("fre"), QStringLiteral("0.500 mm"));
-  EXPECT_EQ(panel.readout("tre"), QStringLiteral("1.25 mm"));
+  EXPECT_EQ(panel.readout("tre"), QStringLiteral("1.250 mm"));
   // Another step's "rms" must not overwrite the registration read-outs.
   panel.showStepResult("us-spatial-calibration", "ok", {{"rms_mm", 0.8}, {"residuals_mm", {0.7, 0.9, 0.8, 0.75}}});
   EXPECT_EQ(panel.readout("fre"), QStringLiteral("0.500 mm"));
@@ -79,4 +79,35 @@ TEST(OutputPanel, SessionStateShowsEveryRecordedStep) {
   EXPECT_EQ(std::accumulate(counts.begin(), counts.end(), 0), 3);
   panel.showSessionState(nlohmann::json::object());  // a fresh session: everything cleared
   EXPECT_EQ(panel.readout("fre"), QStringLiteral("—"));
+}
+
+TEST(OutputPanel, NestedWorkflowFiguresFillReadoutsAndCurves) {
+  mrsns::test::guiApp();
+  OutputPanel panel;
+  // The shapes mrsns::workflow records (registration, temporal calibration, navigation).
+  panel.showStepResult(
+      "registration", "ok",
+      {{"landmarks", {{"fre_rms_mm", 0.41}, {"fre_expected_mm", 0.5}}},
+       {"surface", {{"rms_mm", 0.3}, {"tre", {{"rms", 0.92}, {"max", 1.4}}}}},
+       {"targets", {{{"name", "C5L"}, {"tre_surface_mm", 0.8}}, {{"name", "C5R"}, {"tre_surface_mm", 1.0}}}}});
+  EXPECT_EQ(panel.readout("fre"), QStringLiteral("0.410 mm"));
+  EXPECT_EQ(panel.readout("tre"), QStringLiteral("0.920 mm"));
+  EXPECT_EQ(panel.residualPlot()->pointCount(), 2u);  // TRE per target
+  panel.showStepResult("us-temporal-calibration", "ok",
+                       {{"tracker_lag_ms", -12.5},
+                        {"curve",
+                         {{{"lag_ms", -20.0}, {"reprojection_3d_mean_mm", 1.6}},
+                          {{"lag_ms", -10.0}, {"reprojection_3d_mean_mm", 1.2}},
+                          {{"lag_ms", 0.0}, {"reprojection_3d_mean_mm", 1.5}}}}});
+  EXPECT_EQ(panel.readout("temporal_offset"), QStringLiteral("-12.50 ms"));
+  EXPECT_EQ(panel.residualPlot()->pointCount(), 3u);  // the lag curve replaced the targets
+  panel.showStepResult("navigation", "ok",
+                       {{"mean_loop_latency_ms", 4.2},
+                        {"robot_stopped", true},
+                        {"stop_reason", "tracking lost"},
+                        {"deformation", {{"posterior_sd_mean_mm", 1.5}, {"paper_posterior_sd_mean_mm", 1.52}}}});
+  EXPECT_EQ(panel.readout("latency"), QStringLiteral("4.20 ms"));
+  EXPECT_EQ(panel.readout("supervisor"), QStringLiteral("robot stopped: tracking lost"));
+  EXPECT_EQ(panel.findChild<QLabel*>("output_supervisor")->property("severity").toInt(), 2);
+  EXPECT_EQ(panel.readout("deformation"), QStringLiteral("1.500 mm"));
 }

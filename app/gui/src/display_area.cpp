@@ -103,6 +103,9 @@ DisplayArea::DisplayArea(QWidget* parent) : QWidget(parent), impl_(std::make_uni
       vtkNew<vtkInteractorStyleImage> image_style;
       widget->interactor()->SetInteractorStyle(image_style);
       widget->setMinimumSize(160, 120);
+      auto* title = new QLabel(slice_titles[i], impl_->slice_column);
+      title->setObjectName(QStringLiteral("sliceTitle"));
+      column->addWidget(title);
       column->addWidget(widget, 1);
       impl_->slice_widgets[i] = widget;
     }

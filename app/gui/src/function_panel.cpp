@@ -13,9 +13,10 @@
 namespace mrsns::gui {
 
 FunctionPanel::FunctionPanel(QWidget* parent) : QWidget(parent) {
-  auto* layout = new QVBoxLayout(this);
-  layout->setContentsMargins(6, 6, 6, 6);
-  layout->setSpacing(8);
+  // Docked under the display: the groups side by side, like a control strip.
+  auto* layout = new QHBoxLayout(this);
+  layout->setContentsMargins(6, 2, 6, 6);
+  layout->setSpacing(10);
 
   navigation_ = new StepList(tr("Navigation"), this);
   robot_ = new StepList(tr("Robot"), this);

@@ -103,10 +103,13 @@ MainWindow::MainWindow(MainWindowOptions options, QWidget* parent) : QMainWindow
   preparation_dock_ = makeDock(this, tr("Preparation"), QStringLiteral("preparationArea"), preparation_, true);
   function_dock_ = makeDock(this, tr("Function"), QStringLiteral("functionArea"), function_, true);
   output_dock_ = makeDock(this, tr("Output"), QStringLiteral("outputArea"), output_, false);
+  // Fig. 4: preparation left, output right, the function strip under the display.
+  setCorner(Qt::BottomLeftCorner, Qt::LeftDockWidgetArea);
+  setCorner(Qt::BottomRightCorner, Qt::RightDockWidgetArea);
   addDockWidget(Qt::LeftDockWidgetArea, preparation_dock_);
-  addDockWidget(Qt::LeftDockWidgetArea, function_dock_);
+  addDockWidget(Qt::BottomDockWidgetArea, function_dock_);
   addDockWidget(Qt::RightDockWidgetArea, output_dock_);
-  resizeDocks({preparation_dock_, output_dock_}, {330, 380}, Qt::Horizontal);
+  resizeDocks({preparation_dock_, output_dock_}, {330, 370}, Qt::Horizontal);
 
   connect(preparation_, &PreparationPanel::runStepRequested, this, [this](const QString& s) { runStep(s); });
   connect(function_, &FunctionPanel::runStepRequested, this, [this](const QString& s) { runStep(s); });

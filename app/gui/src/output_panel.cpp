@@ -24,6 +24,11 @@ bool contains(const std::string& s, const char* what) {
   return s.find(what) != std::string::npos;
 }
 
+bool endsWith(const std::string& s, const char* suffix) {
+  const std::string sfx(suffix);
+  return s.size() >= sfx.size() && s.compare(s.size() - sfx.size(), sfx.size(), sfx) == 0;
+}
+
 QString unitOf(const std::string& key) {
   auto ends = [&](const char* suffix) {
     const std::string sfx(suffix);
@@ -60,21 +65,6 @@ std::vector<double> indices(std::size_t n) {
   return x;
 }
 
-/// First scalar figure whose key contains one of `needles` (in order of preference).
-const nlohmann::json* findScalar(const nlohmann::json& figures, std::initializer_list<const char*> needles,
-                                 std::string* key_out) {
-  if (!figures.is_object()) return nullptr;
-  for (const char* needle : needles) {
-    for (auto it = figures.begin(); it != figures.end(); ++it) {
-      if (contains(it.key(), needle) && (it->is_number() || it->is_string() || it->is_boolean())) {
-        *key_out = it.key();
-        return &*it;
-      }
-    }
-  }
-  return nullptr;
-}
-
 }  // namespace
 
 QString formatFigure(const std::string& key, const nlohmann::json& value) {
@@ -108,7 +98,9 @@ OutputPanel::OutputPanel(QWidget* parent) : QWidget(parent) {
       {"temporal_offset", tr("US temporal offset")},
       {"robot", tr("Robot calibration")},
       {"hmd", tr("HMD calibration")},
+      {"deformation", tr("Soft-tissue model SD")},
       {"tip_to_tissue", tr("Drill tip → soft tissue")},
+      {"placement", tr("Screw placement (target)")},
       {"supervisor", tr("Supervisor")},
       {"latency", tr("Latency")},
   };
@@ -200,6 +192,25 @@ void OutputPanel::showSessionState(const nlohmann::json& state) {
   }
 }
 
+namespace {
+
+void addFigureRows(QTreeWidgetItem* parent, const nlohmann::json& figures) {
+  if (!figures.is_object()) return;
+  for (auto it = figures.begin(); it != figures.end(); ++it) {
+    // Matrices and simulation ground truth are for files, not for reading.
+    if (it.key() == "transforms" || it.key() == "simulation_truth") continue;
+    auto* child = new QTreeWidgetItem(parent);
+    child->setText(0, QString::fromStdString(it.key()));
+    if (it->is_object()) {
+      addFigureRows(child, *it);
+    } else {
+      child->setText(1, formatFigure(it.key(), *it));
+    }
+  }
+}
+
+}  // namespace
+
 void OutputPanel::showStepResult(const std::string& step, const std::string& status, const nlohmann::json& figures) {
   const QString step_name = QString::fromStdString(step);
   QTreeWidgetItem* item = nullptr;
@@ -213,39 +224,87 @@ void OutputPanel::showStepResult(const std::string& step, const std::string& sta
   qDeleteAll(item->takeChildren());
   item->setText(0, step_name);
   item->setText(1, QString::fromStdString(status));
-  if (figures.is_object()) {
-    for (auto it = figures.begin(); it != figures.end(); ++it) {
-      auto* child = new QTreeWidgetItem(item);
-      child->setText(0, QString::fromStdString(it.key()));
-      child->setText(1, formatFigure(it.key(), *it));
-    }
-  }
+  addFigureRows(item, figures);
   item->setExpanded(true);
   headlineFromFigures(step, figures);
   plotsFromFigures(step, figures);
 }
 
-void OutputPanel::headlineFromFigures(const std::string& step, const nlohmann::json& figures) {
-  std::string key;
-  auto show = [&](const QString& readout, std::initializer_list<const char*> needles) {
-    if (const auto* v = findScalar(figures, needles, &key)) setReadout(readout, formatFigure(key, *v));
-  };
-  if (contains(step, "registration") && !contains(step, "calibration")) {
-    show(QStringLiteral("fre"), {"fre"});
-    show(QStringLiteral("tre"), {"tre"});
+namespace {
+
+/// Scalar leaves of a (nested) figures object by dotted path, e.g. "surface.tre.rms".
+void flatten(const nlohmann::json& j, const std::string& prefix,
+             std::vector<std::pair<std::string, nlohmann::json>>& out) {
+  if (j.is_object()) {
+    for (auto it = j.begin(); it != j.end(); ++it)
+      flatten(*it, prefix.empty() ? it.key() : prefix + "." + it.key(), out);
+  } else if (j.is_number() || j.is_string() || j.is_boolean()) {
+    out.emplace_back(prefix, j);
   }
-  if (contains(step, "pivot")) show(QStringLiteral("pivot"), {"rms", "error", "residual"});
-  if (contains(step, "us-spatial")) show(QStringLiteral("us_calibration"), {"rms", "error", "residual"});
-  if (contains(step, "us-temporal")) show(QStringLiteral("temporal_offset"), {"offset", "lag", "delay"});
-  if (contains(step, "robot-calibration")) show(QStringLiteral("robot"), {"rms", "error", "residual"});
-  if (contains(step, "hmd")) show(QStringLiteral("hmd"), {"rms", "error", "residual"});
-  show(QStringLiteral("tip_to_tissue"), {"tissue", "tip_distance"});
-  show(QStringLiteral("latency"), {"latency"});
-  if (const auto* v = findScalar(figures, {"supervisor"}, &key)) {
-    const QString text = formatFigure(key, *v);
-    const bool ok = text.compare(QStringLiteral("ok"), Qt::CaseInsensitive) == 0 ||
-                    text.compare(QStringLiteral("running"), Qt::CaseInsensitive) == 0;
-    setSupervisorState(text, ok);
+}
+
+/// The first leaf whose path equals one of `exact`, else contains one of `needles`.
+const nlohmann::json* pick(const std::vector<std::pair<std::string, nlohmann::json>>& leaves,
+                           std::initializer_list<const char*> exact, std::initializer_list<const char*> needles,
+                           std::string* path) {
+  for (const char* e : exact) {
+    for (const auto& [p, v] : leaves) {
+      if (p == e && v.is_number()) return *path = p, &v;
+    }
+  }
+  for (const char* n : needles) {
+    for (const auto& [p, v] : leaves) {
+      if (contains(p, n) && v.is_number() && !contains(p, "expected") && !contains(p, "paper") &&
+          !contains(p, "noise") && !contains(p, "predicted") && !contains(p, "truth"))
+        return *path = p, &v;
+    }
+  }
+  return nullptr;
+}
+
+}  // namespace
+
+void OutputPanel::headlineFromFigures(const std::string& step, const nlohmann::json& figures) {
+  std::vector<std::pair<std::string, nlohmann::json>> leaves;
+  flatten(figures, "", leaves);
+  std::string path;
+  // Read-outs in mm whatever the figure's own name says (e.g. "surface.tre.rms").
+  auto showMm = [&](const QString& readout, std::initializer_list<const char*> exact,
+                    std::initializer_list<const char*> needles) {
+    if (const auto* v = pick(leaves, exact, needles, &path)) {
+      setReadout(readout, QString::number(v->get<double>(), 'f', 3) + QStringLiteral(" mm"));
+    }
+  };
+  if (step == "registration") {
+    showMm(QStringLiteral("fre"), {"landmarks.fre_rms_mm"}, {"fre"});
+    showMm(QStringLiteral("tre"), {"surface.tre.rms"}, {"tre.rms", "tre"});
+  } else if (contains(step, "pivot")) {
+    showMm(QStringLiteral("pivot"), {"pivot_rms_mm"}, {"rms", "error"});
+  } else if (step == "us-spatial-calibration") {
+    showMm(QStringLiteral("us_calibration"),
+           {"validation.reprojection_3d_mean_mm", "calibration.reprojection_3d_mean_mm"},
+           {"reprojection", "rms", "error"});
+  } else if (step == "us-temporal-calibration") {
+    if (const auto* v = pick(leaves, {"tracker_lag_ms"}, {"lag", "offset"}, &path))
+      setReadout(QStringLiteral("temporal_offset"), formatFigure(path, *v));
+  } else if (step == "robot-calibration") {
+    showMm(QStringLiteral("robot"), {"fre_rms_mm"}, {"rms", "error"});
+  } else if (step == "hmd-calibration") {
+    showMm(QStringLiteral("hmd"), {"tre_at_patient_mm", "rigid_rms_mm"}, {"rms", "error"});
+  } else if (step == "robot-placement") {
+    showMm(QStringLiteral("placement"), {"target_error_mm.mean"}, {"target_error", "error"});
+  }
+  showMm(QStringLiteral("deformation"), {"deformation.posterior_sd_mean_mm"}, {"posterior_sd_mean"});
+  showMm(QStringLiteral("tip_to_tissue"), {}, {"tissue", "tip_distance"});
+  if (const auto* v = pick(leaves, {"mean_loop_latency_ms"}, {"latency"}, &path))
+    setReadout(QStringLiteral("latency"), formatFigure(path, *v), v->get<double>() > 100.0 ? 1 : 0);
+  if (figures.is_object() && figures.contains("robot_stopped") && figures["robot_stopped"].is_boolean()) {
+    const bool stopped = figures["robot_stopped"].get<bool>();
+    const std::string reason = figures.value("stop_reason", std::string());
+    setSupervisorState(stopped ? tr("robot stopped: %1").arg(QString::fromStdString(reason)) : tr("ok"), !stopped);
+  } else if (const auto* v = pick(leaves, {}, {"supervisor"}, &path)) {
+    const QString text = formatFigure(path, *v);
+    setSupervisorState(text, text.compare(QStringLiteral("ok"), Qt::CaseInsensitive) == 0);
   }
 }
 
@@ -262,15 +321,51 @@ void OutputPanel::plotsFromFigures(const std::string& step, const nlohmann::json
     }
     return indices(n);
   };
+  bool residuals_replaced = false;
+  auto residualSeries = [&](const QString& series, const std::vector<double>& x, const std::vector<double>& y,
+                            const QString& x_label, QColor color) {
+    if (!residuals_replaced) {
+      // The plot shows the latest step's per-frame (or per-target) errors.
+      residual_plot_->clear();
+      residual_plot_->setTitle(tr("%1: errors").arg(name));
+      residual_plot_->setAxisLabels(x_label, tr("mm"));
+      residuals_replaced = true;
+    }
+    residual_plot_->setSeries(series, x, y, color);
+  };
+  const QColor palette[] = {kBlue, kOrange, kGreen, kViolet};
+  int colour = 0;
   for (auto it = figures.begin(); it != figures.end(); ++it) {
     const std::string& key = it.key();
+    if (contains(key, "time_s")) continue;
     const auto y = numbers(*it);
-    if (y.empty() || contains(key, "time_s")) continue;
+    if (y.empty() && it->is_array() && !it->empty() && (*it)[0].is_object()) {
+      // Rows of objects (per target, per path, a lag curve): plot each *_mm
+      // field against a *_ms field when there is one, else against the row.
+      std::string x_field;
+      for (auto f = (*it)[0].begin(); f != (*it)[0].end(); ++f) {
+        if (f->is_number() && endsWith(f.key(), "_ms")) x_field = f.key();
+      }
+      for (auto f = (*it)[0].begin(); f != (*it)[0].end(); ++f) {
+        if (!f->is_number() || !endsWith(f.key(), "_mm")) continue;
+        std::vector<double> xs, ys;
+        for (const auto& row : *it) {
+          if (!row.is_object() || !row.contains(f.key()) || !row[f.key()].is_number()) continue;
+          xs.push_back(x_field.empty() ? static_cast<double>(xs.size()) : row.value(x_field, 0.0));
+          ys.push_back(row[f.key()].get<double>());
+        }
+        if (ys.empty()) continue;
+        const QString x_label = x_field.empty() ? QString::fromStdString(key) : QString::fromStdString(x_field);
+        residualSeries(QString::fromStdString(f.key()), xs, ys, x_label, palette[colour++ % 4]);
+      }
+      continue;
+    }
+    if (y.empty()) continue;
     if (contains(key, "latenc")) {
       latencies_ms_ = y;
       latency_plot_->setHistogram(y, 20, kViolet);
     } else if (contains(key, "residual")) {
-      residual_plot_->setSeries(name, indices(y.size()), y, contains(step, "temporal") ? kOrange : kBlue);
+      residualSeries(QString::fromStdString(key), indices(y.size()), y, tr("frame"), kBlue);
     } else if (contains(key, "tissue") || contains(key, "distance")) {
       distance_plot_->setSeries(name, xFor(key, y.size()), y, kGreen);
     } else if (contains(key, "deformation") || contains(key, "error_over_time") || contains(key, "model_error")) {

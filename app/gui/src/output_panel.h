@@ -32,8 +32,8 @@ class OutputPanel : public QWidget {
   void clear();
 
   /// The read-out text of a headline figure ("fre", "tre", "us_calibration",
-  /// "temporal_offset", "pivot", "hmd", "robot", "tip_to_tissue",
-  /// "supervisor", "latency"); empty when unknown.
+  /// "temporal_offset", "pivot", "hmd", "robot", "deformation",
+  /// "tip_to_tissue", "placement", "supervisor", "latency"); empty when unknown.
   [[nodiscard]] QString readout(const QString& key) const;
   PlotWidget* residualPlot() const { return residual_plot_; }
   PlotWidget* latencyPlot() const { return latency_plot_; }

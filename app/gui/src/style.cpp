@@ -25,6 +25,7 @@ QLabel[stepState="failed"] { color: #ef7a6a; }
 QLabel[stepState="running"] { color: #e8c05a; }
 QLabel[stepState="none"] { color: #7d8693; }
 QLabel#readoutName { color: #9aa5b1; }
+QLabel#sliceTitle { color: #8fb8de; font-weight: bold; padding: 2px 4px; background: #1b1e23; }
 QLabel[severity="0"] { font-size: 15px; font-weight: bold; color: #e6edf3; }
 QLabel[severity="1"] { font-size: 15px; font-weight: bold; color: #e8c05a; }
 QLabel[severity="2"] { font-size: 15px; font-weight: bold; color: #ff6b5a; }
