@@ -1,5 +1,6 @@
 #include "mrsns/deformation/shape_tracker.h"
 
+#include <algorithm>
 #include <chrono>
 #include <limits>
 
@@ -63,6 +64,36 @@ std::vector<Eigen::Vector3d> alignCyclic(const std::vector<Eigen::Vector3d>& a, 
   return out;
 }
 
+namespace {
+
+// The closest point of the closed polyline `c` to each of `points`.
+std::vector<Eigen::Vector3d> closestOnPolyline(const std::vector<Eigen::Vector3d>& points, const Polyline3d& c) {
+  std::vector<Eigen::Vector3d> out;
+  out.reserve(points.size());
+  const std::size_t n = c.points.size();
+  for (const auto& p : points) {
+    double best = std::numeric_limits<double>::infinity();
+    Eigen::Vector3d best_q = c.points.front();
+    for (std::size_t i = 0; i < n; ++i) {
+      const Eigen::Vector3d& a = c.points[i];
+      const Eigen::Vector3d& b = c.points[(i + 1) % n];
+      const Eigen::Vector3d ab = b - a;
+      const double len2 = ab.squaredNorm();
+      const double t = len2 > 0.0 ? std::clamp((p - a).dot(ab) / len2, 0.0, 1.0) : 0.0;
+      const Eigen::Vector3d q = a + t * ab;
+      const double d = (q - p).squaredNorm();
+      if (d < best) {
+        best = d;
+        best_q = q;
+      }
+    }
+    out.push_back(best_q);
+  }
+  return out;
+}
+
+}  // namespace
+
 FrameUpdate PosteriorShapeTracker::update(const Eigen::Isometry3d& model_T_image,
                                           std::span<const Polyline3d> feature_contours) {
   const auto t0 = std::chrono::steady_clock::now();
@@ -119,7 +150,9 @@ FrameUpdate PosteriorShapeTracker::update(const Eigen::Isometry3d& model_T_image
     const Polyline3d fres = resampleNearArcLength(fc, k);
     std::vector<Eigen::Vector3d> mpts;
     for (const auto& p : mparams) mpts.push_back(mc.modelPoint(p).point);
-    const std::vector<Eigen::Vector3d> fpts = alignCyclic(mpts, fres.points);
+    const std::vector<Eigen::Vector3d> fpts = options_.correspondence == ContourCorrespondence::ArcLength
+                                                  ? alignCyclic(mpts, fres.points)
+                                                  : closestOnPolyline(mpts, fc);
     // Step (d): replace the nearest stored observation within D^Thr, else add.
     for (int i = 0; i < k; ++i) {
       ModelPointObservation o = mc.modelPoint(mparams[static_cast<std::size_t>(i)]);

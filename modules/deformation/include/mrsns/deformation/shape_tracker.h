@@ -18,7 +18,21 @@
 
 namespace mrsns::deformation {
 
+/// How the K feature points are paired with the K model-contour points.
+enum class ContourCorrespondence {
+  /// The paper's step (c)3-4: both contours resampled by Eq. 8 to K points,
+  /// paired after the best cyclic shift. Each pair also carries a tangential
+  /// offset of up to half a step (the contours start at unrelated angles),
+  /// which pulls vertices around the vessel.
+  ArcLength,
+  /// Each of the K model points (Eq. 8) is observed at its closest point on
+  /// the feature contour: only the displacement across the wall, which is
+  /// what a cross-section shows.
+  ClosestPoint,
+};
+
 struct ShapeTrackerOptions {
+  ContourCorrespondence correspondence = ContourCorrespondence::ArcLength;
   /// K of Algorithm 1 step (c)3.
   int contour_points = 15;
   /// D^Thr of Algorithm 1 (a)2: a feature point closer than this to a stored
