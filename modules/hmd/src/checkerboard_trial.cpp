@@ -3,6 +3,7 @@
 
 #include <cmath>
 #include <random>
+#include <utility>
 
 #include "mrsns/core/error.h"
 #include "mrsns/core/rigid.h"
@@ -80,7 +81,8 @@ Eigen::Vector3d gridCentre(const CheckerboardSpec& spec) {
   return {0.5 * (spec.cols - 1) * spec.square_mm, 0.5 * (spec.rows - 1) * spec.square_mm, 0.0};
 }
 
-CameraCalibrationResult calibrateIntrinsics(const CheckerboardTrialOptions& o, Noise& noise) {
+CameraCalibrationResult calibrateIntrinsics(const CheckerboardTrialOptions& o, Noise& noise,
+                                            std::vector<GrayImage>* kept) {
   std::vector<std::vector<Eigen::Vector2d>> corners;
   int attempts = 0;
   while (static_cast<int>(corners.size()) < o.intrinsics_images && attempts++ < 50 * o.intrinsics_images) {
@@ -92,9 +94,12 @@ CameraCalibrationResult calibrateIntrinsics(const CheckerboardTrialOptions& o, N
     if (!boardInView(o.intrinsics_board, o.camera, camera_T_grid, 10.0)) continue;
     BoardRenderOptions render = o.render;
     render.seed = noise.next();
-    const auto found =
-        detectCheckerboard(renderCheckerboard(o.intrinsics_board, o.camera, camera_T_grid, render), o.intrinsics_board);
-    if (found) corners.push_back(*found);
+    GrayImage image = renderCheckerboard(o.intrinsics_board, o.camera, camera_T_grid, render);
+    const auto found = detectCheckerboard(image, o.intrinsics_board);
+    if (found) {
+      corners.push_back(*found);
+      if (kept != nullptr) kept->push_back(std::move(image));
+    }
   }
   return calibrateCamera(corners, o.intrinsics_board, o.camera.width, o.camera.height);
 }
@@ -122,7 +127,7 @@ CheckerboardTrialResult runCheckerboardTrial(const CheckerboardTrialOptions& o) 
   board_T_grid.translation() = Eigen::Vector3d(-60.0, 40.0, 3.0);
 
   // 1. Camera intrinsics from close views of the printed board.
-  result.camera = calibrateIntrinsics(o, noise);
+  result.camera = calibrateIntrinsics(o, noise, o.keep_inputs ? &result.intrinsics_images : nullptr);
 
   // 2. Pointer pivot calibration.
   const Eigen::Vector3d tip(2.0, -1.5, 150.0);
@@ -176,6 +181,7 @@ CheckerboardTrialResult runCheckerboardTrial(const CheckerboardTrialOptions& o) 
     view.tracker_T_hmd = trackedStill(tracker_T_hmd, noise, o);
     view.tracker_T_board = trackedStill(tracker_T_board, noise, o);
     views.push_back(view);
+    if (o.keep_inputs) result.images.push_back(image);
     result.distances_mm.push_back((camera_T_grid * gridCentre(o.board)).norm());
   }
   if (static_cast<int>(views.size()) < o.poses) {
@@ -189,6 +195,10 @@ CheckerboardTrialResult runCheckerboardTrial(const CheckerboardTrialOptions& o) 
                                      result.camera.intrinsics, result.hand_eye.corners_reversed);
   result.rotation_error_deg = rotationAngleBetween(result.hand_eye.hmd_T_camera.linear(), hmd_T_camera.linear()) / kDeg;
   result.translation_error_mm = (result.hand_eye.hmd_T_camera.translation() - hmd_T_camera.translation()).norm();
+  if (o.keep_inputs) {
+    result.views = views;
+    result.digitised_corners = digitised;
+  }
   return result;
 }
 

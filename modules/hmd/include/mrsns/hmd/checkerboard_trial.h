@@ -42,6 +42,8 @@ struct CheckerboardTrialOptions {
   int tracker_samples_per_image = 30;
   double digitisation_rms_mm = 0.25;  // 3D RMS of tip placement on a corner
   BoardRenderOptions render;
+  /// Keep the rendered images and inputs in the result (to write them as a data set).
+  bool keep_inputs = false;
 };
 
 struct CheckerboardTrialResult {
@@ -55,6 +57,11 @@ struct CheckerboardTrialResult {
   Eigen::Isometry3d true_hmd_T_camera = Eigen::Isometry3d::Identity();
   double rotation_error_deg = 0, translation_error_mm = 0;  // estimate vs truth
   std::vector<double> distances_mm;                         // camera-board distance per pose
+  /// With keep_inputs: the protocol images (one per view), the intrinsics images, the views
+  /// (tracked poses, detected corners) and the digitised corners in the board frame.
+  std::vector<GrayImage> images, intrinsics_images;
+  std::vector<CheckerboardView> views;
+  std::vector<Eigen::Vector3d> digitised_corners;
 };
 
 /// Runs the protocol. Throws like the pipeline steps (e.g. ComputationError when a rendered
