@@ -148,3 +148,17 @@ TEST(Snapshot, BadSizeOrPathIsRefused) {
   EXPECT_THROW(snapshotPng(scene, dir / "x.png", 100, 100000), InvalidArgumentError);
   EXPECT_THROW(snapshotPng(scene, dir / "no such folder" / "x.png", 100, 100), FileError);
 }
+
+TEST(Snapshot, ManySnapshotsInOneProcess) {
+  // The trial report and the GUI take many snapshots in one process: each
+  // must release its window and X connection.
+  MRSNS_REQUIRE_DISPLAY();
+  Scene scene;
+  scene.setMesh("ball", sphereMesh(Eigen::Vector3d::Zero(), 10.0), Eigen::Vector3d(1, 0, 0));
+  scene.resetCamera();
+  const auto dir = mrsns::test::scratchDirectory("snapshot");
+  for (int i = 0; i < 12; ++i) {
+    snapshotPng(scene, dir / "many.png", 64, 48);
+    ASSERT_GT(mrsns::test::readPng(dir / "many.png").count(0, 0, 64, 48, isReddish), 100) << "snapshot " << i;
+  }
+}

@@ -14,8 +14,7 @@
 
 namespace mrsns::rendering::detail {
 
-void renderToPng(const std::vector<ViewportRenderer>& renderers, const std::filesystem::path& png, int width,
-                 int height) {
+void checkOffscreen(int width, int height) {
   if (width < 16 || height < 16 || width > 8192 || height > 8192) {
     throw InvalidArgumentError("snapshot size " + std::to_string(width) + "x" + std::to_string(height) +
                                ": width and height must lie in [16, 8192] pixels");
@@ -25,6 +24,32 @@ void renderToPng(const std::vector<ViewportRenderer>& renderers, const std::file
   if (display == nullptr || *display == '\0') {
     throw UnsupportedError("offscreen rendering needs an X display (DISPLAY is not set): run under 'xvfb-run -a'");
   }
+}
+
+void writeWindowPng(vtkRenderWindow* window, const std::filesystem::path& png) {
+  {
+    // Fail with the path in the message; vtkPNGWriter only logs.
+    std::ofstream probe(png, std::ios::binary | std::ios::app);
+    if (!probe)
+      throw FileError("cannot write snapshot '" + png.string() + "': check the folder exists and is writable");
+  }
+  auto grab = vtkSmartPointer<vtkWindowToImageFilter>::New();
+  grab->SetInput(window);
+  grab->SetInputBufferTypeToRGB();
+  grab->ReadFrontBufferOff();
+  grab->Update();
+  auto writer = vtkSmartPointer<vtkPNGWriter>::New();
+  writer->SetFileName(png.string().c_str());
+  writer->SetInputConnection(grab->GetOutputPort());
+  writer->Write();
+  if (writer->GetErrorCode() != 0) {
+    throw FileError("cannot write snapshot '" + png.string() + "': disk full or not writable");
+  }
+}
+
+void renderToPng(const std::vector<ViewportRenderer>& renderers, const std::filesystem::path& png, int width,
+                 int height) {
+  checkOffscreen(width, height);
   {
     // Fail before rendering when the PNG cannot be created.
     std::ofstream probe(png, std::ios::binary | std::ios::app);
@@ -32,9 +57,16 @@ void renderToPng(const std::vector<ViewportRenderer>& renderers, const std::file
       throw FileError("cannot write snapshot '" + png.string() + "': check the folder exists and is writable");
   }
 
-  auto window = vtkSmartPointer<vtkRenderWindow>::New();
-  window->SetOffScreenRendering(1);
-  window->SetMultiSamples(0);
+  // One offscreen window for every snapshot of the process: creating and
+  // destroying X windows per snapshot makes Xvfb refuse connections after a
+  // handful (VTK 9.1 on Mesa), and reusing the context is faster anyway.
+  static vtkSmartPointer<vtkRenderWindow> shared_window;
+  if (!shared_window) {
+    shared_window = vtkSmartPointer<vtkRenderWindow>::New();
+    shared_window->SetOffScreenRendering(1);
+    shared_window->SetMultiSamples(0);
+  }
+  vtkRenderWindow* window = shared_window;
   window->SetSize(width, height);
   struct Borrowed {
     vtkRenderer* renderer;
@@ -60,26 +92,12 @@ void renderToPng(const std::vector<ViewportRenderer>& renderers, const std::file
   try {
     for (const auto& r : renderers) r.renderer->ResetCameraClippingRange();
     window->Render();
-    auto grab = vtkSmartPointer<vtkWindowToImageFilter>::New();
-    grab->SetInput(window);
-    grab->SetInputBufferTypeToRGB();
-    grab->ReadFrontBufferOff();
-    grab->Update();
-    auto writer = vtkSmartPointer<vtkPNGWriter>::New();
-    writer->SetFileName(png.string().c_str());
-    writer->SetInputConnection(grab->GetOutputPort());
-    writer->Write();
-    if (writer->GetErrorCode() != 0) {
-      throw FileError("cannot write snapshot '" + png.string() + "': disk full or not writable");
-    }
+    writeWindowPng(window, png);
   } catch (...) {
     giveBack();
     throw;
   }
   giveBack();
-  // Releasing the context's resources while the renderers still know the
-  // window would leave them holding dead OpenGL handles.
-  window->Finalize();
 }
 
 }  // namespace mrsns::rendering::detail

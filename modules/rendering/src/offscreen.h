@@ -5,6 +5,7 @@
 #include <vector>
 
 class vtkRenderer;
+class vtkRenderWindow;
 
 namespace mrsns::rendering::detail {
 
@@ -17,6 +18,13 @@ struct ViewportRenderer {
 /// A renderer already shown in a window (the GUI's) is borrowed and given
 /// back afterwards. Throws InvalidArgumentError for a size outside
 /// [16, 8192], UnsupportedError without a display, FileError when writing fails.
+/// Throws InvalidArgumentError for a size outside [16, 8192] and
+/// UnsupportedError without an X display.
+void checkOffscreen(int width, int height);
+
+/// Grabs the window's back buffer into an RGB PNG. Throws FileError.
+void writeWindowPng(vtkRenderWindow* window, const std::filesystem::path& png);
+
 void renderToPng(const std::vector<ViewportRenderer>& renderers, const std::filesystem::path& png, int width,
                  int height);
 
