@@ -46,6 +46,8 @@ void registerMakePhantomVerb(CLI::App& app, GlobalOptions& options, VerbList& ve
 void registerSsmVerbs(CLI::App& app, GlobalOptions& options, VerbList& verbs);
 void registerDeformTrialVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs);
 void registerUltrasoundVerbs(CLI::App& app, GlobalOptions& options, VerbList& verbs);
+void registerSessionVerbs(CLI::App& app, GlobalOptions& options, VerbList& verbs);
+void registerTrialVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs);
 
 /// Adds the --json flag to a subcommand (every verb has it).
 void addJsonFlag(CLI::App& sub, GlobalOptions& options);

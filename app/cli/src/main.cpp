@@ -48,6 +48,8 @@ int main(int argc, char** argv) {
   registerSsmVerbs(app, options, verbs);
   registerDeformTrialVerb(app, options, verbs);
   registerUltrasoundVerbs(app, options, verbs);
+  registerSessionVerbs(app, options, verbs);
+  registerTrialVerb(app, options, verbs);
 
   try {
     app.parse(argc, argv);

@@ -52,4 +52,19 @@ fs::path sampleSessionPath() {
   return sample;
 }
 
+Session createSessionFromSample(const fs::path& folder) {
+  const fs::path sample = sampleSessionPath();
+  Session session = Session::create(folder);
+  std::error_code ec;
+  for (const auto& entry : fs::directory_iterator(sample, ec)) {
+    if (entry.path().filename() == "README.md") continue;
+    fs::copy(entry.path(), session.folder() / entry.path().filename(),
+             fs::copy_options::recursive | fs::copy_options::overwrite_existing, ec);
+    if (ec) {
+      throw FileError("copying the sample session into '" + folder.string() + "' failed: " + ec.message());
+    }
+  }
+  return Session::open(folder);
+}
+
 }  // namespace mrsns::workflow

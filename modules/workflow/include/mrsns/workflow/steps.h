@@ -60,6 +60,11 @@ StepResult runStep(Session& session, const std::string& step, const nlohmann::js
 /// FileError when none exists.
 std::filesystem::path sampleSessionPath();
 
+/// A new session at `folder` (absent or empty) copied from the sample
+/// session: the installed one is read-only. Throws FileError as
+/// Session::create does, or when the sample is missing.
+Session createSessionFromSample(const std::filesystem::path& folder);
+
 /// The share directory holding resources (build tree: the source resources/
 /// folder; installed: <prefix>/share/mrsns).
 std::filesystem::path resourceDirectory();

@@ -1,0 +1,151 @@
+// `mrsns-cli session create|run|info|steps`: the workstation's session and
+// workflow steps, headless (the same calls the GUI makes).
+#include <iostream>
+#include <sstream>
+
+#include "cli_context.h"
+#include "mrsns/core/error.h"
+#include "mrsns/workflow/steps.h"
+
+namespace mrsns::cli {
+namespace {
+
+// "k=v": v as JSON when it parses (numbers, true/false, quoted strings), else as text.
+nlohmann::json parseParams(const std::vector<std::string>& pairs) {
+  nlohmann::json params = nlohmann::json::object();
+  for (const auto& pair : pairs) {
+    const auto eq = pair.find('=');
+    if (eq == std::string::npos || eq == 0) {
+      throw InvalidArgumentError("--param '" + pair + "' is not NAME=VALUE (e.g. --param duration_s=2)");
+    }
+    const std::string key = pair.substr(0, eq);
+    const std::string value = pair.substr(eq + 1);
+    nlohmann::json parsed = nlohmann::json::parse(value, nullptr, false);
+    params[key] = (parsed.is_discarded() || parsed.is_object() || parsed.is_array()) ? nlohmann::json(value) : parsed;
+  }
+  return params;
+}
+
+Json stepsJson(const workflow::Session& session) {
+  Json out = Json::array();
+  for (const auto& info : workflow::listSteps()) {
+    const auto s = session.step(info.name);
+    out.push_back(Json{{"name", info.name},
+                       {"area", info.area},
+                       {"status", s.is_null() ? "not run" : s.value("status", "?")},
+                       {"summary", s.is_null() ? "" : s.value("summary", "")}});
+  }
+  return out;
+}
+
+Report infoReport(const workflow::Session& session, const std::string& verb) {
+  Report report;
+  report.json["verb"] = verb;
+  report.json["folder"] = session.folder().string();
+  report.json["version"] = session.state()["version"];
+  report.json["created"] = session.state().value("created", "");
+  report.json["steps"] = stepsJson(session);
+  report.json["log_lines"] = session.state()["log"].size();
+  std::ostringstream text;
+  text << "session " << session.folder().string() << "\n";
+  for (const auto& s : report.json["steps"]) {
+    text << "  " << s["name"].get<std::string>() << ": " << s["status"].get<std::string>();
+    if (!s["summary"].get<std::string>().empty()) text << " - " << s["summary"].get<std::string>();
+    text << "\n";
+  }
+  report.text = text.str();
+  return report;
+}
+
+}  // namespace
+
+void registerSessionVerbs(CLI::App& app, GlobalOptions& options, VerbList& verbs) {
+  auto* group = app.add_subcommand("session", "Surgical sessions: create one, run workflow steps on it, show it");
+  group->require_subcommand(1);
+
+  auto folder_create = std::make_shared<std::string>();
+  auto* create = group->add_subcommand("create", "Create an empty session folder (session.json)");
+  create->add_option("DIR", *folder_create, "new session folder (absent or empty)")->required();
+  addJsonFlag(*create, options);
+  verbs.emplace_back(create, [folder_create]() -> Report {
+    const auto s = workflow::Session::create(*folder_create);
+    auto report = infoReport(s, "session create");
+    report.text = "created session " + s.folder().string() + "\n";
+    return report;
+  });
+
+  auto folder_sample = std::make_shared<std::string>();
+  auto* sample = group->add_subcommand("sample", "Create a session folder from the bundled sample session");
+  sample->add_option("DIR", *folder_sample, "new session folder (absent or empty)")->required();
+  addJsonFlag(*sample, options);
+  verbs.emplace_back(sample, [folder_sample]() -> Report {
+    const auto s = workflow::createSessionFromSample(*folder_sample);
+    auto report = infoReport(s, "session sample");
+    report.json["sample"] = workflow::sampleSessionPath().string();
+    report.text = "created session " + s.folder().string() + " from " + workflow::sampleSessionPath().string() + "\n";
+    return report;
+  });
+
+  auto folder_info = std::make_shared<std::string>();
+  auto* info = group->add_subcommand("info", "Show a session: every step's status and summary");
+  info->add_option("DIR", *folder_info, "session folder")->required();
+  addJsonFlag(*info, options);
+  verbs.emplace_back(info, [folder_info]() -> Report {
+    auto report = infoReport(workflow::Session::open(*folder_info), "session info");
+    return report;
+  });
+
+  auto* steps = group->add_subcommand("steps", "List the workflow steps (paper 001 §III.C)");
+  addJsonFlag(*steps, options);
+  verbs.emplace_back(steps, []() -> Report {
+    Report report;
+    report.json["verb"] = "session steps";
+    Json list = Json::array();
+    std::ostringstream text;
+    for (const auto& s : workflow::listSteps()) {
+      list.push_back(Json{{"name", s.name}, {"title", s.title}, {"area", s.area}, {"description", s.description}});
+      text << s.name << " (" << s.area << "): " << s.description << "\n";
+    }
+    report.json["steps"] = list;
+    report.text = text.str();
+    return report;
+  });
+
+  struct RunArgs {
+    std::string folder;
+    std::string step;
+    std::vector<std::string> params;
+    bool progress = false;
+  };
+  auto args = std::make_shared<RunArgs>();
+  auto* run = group->add_subcommand("run", "Run one workflow step on a session (see 'session steps')");
+  run->add_option("DIR", args->folder, "session folder")->required();
+  run->add_option("STEP", args->step, "step name, e.g. registration")->required();
+  run->add_option("--param", args->params, "step parameter NAME=VALUE (repeatable)");
+  run->add_flag("--progress", args->progress, "print progress lines on stderr");
+  addJsonFlag(*run, options);
+  verbs.emplace_back(run, [args]() -> Report {
+    auto session = workflow::Session::open(args->folder);
+    workflow::StepContext context;
+    if (args->progress) {
+      context.progress = [](double f, const std::string& message) {
+        std::cerr << static_cast<int>(f * 100.0) << "% " << message << "\n";
+      };
+    }
+    const auto result = workflow::runStep(session, args->step, parseParams(args->params), context);
+    if (!result.ok) {
+      throw ComputationError("step '" + args->step + "' did not succeed: " + result.summary);
+    }
+    Report report;
+    report.json["verb"] = "session run";
+    report.json["step"] = args->step;
+    report.json["ok"] = result.ok;
+    report.json["summary"] = result.summary;
+    report.json["figures"] = Json::parse(result.figures.dump());
+    report.json["outputs"] = result.outputs;
+    report.text = args->step + ": " + result.summary + "\n";
+    return report;
+  });
+}
+
+}  // namespace mrsns::cli

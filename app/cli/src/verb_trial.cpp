@@ -1,0 +1,69 @@
+// `mrsns-cli trial`: the whole phantom trial on bundled data, headless, with
+// a report folder (index.html, report.json, snapshots).
+#include <iostream>
+#include <sstream>
+
+#include "cli_context.h"
+#include "mrsns/core/error.h"
+#include "mrsns/workflow/trial.h"
+
+namespace mrsns::cli {
+
+void registerTrialVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs) {
+  struct TrialArgs {
+    std::string out = "mrsns-trial";
+    std::uint64_t seed = 1;
+    double navigation_s = 2.0;
+    int deformation_cases = 3;
+    bool progress = false;
+  };
+  auto args = std::make_shared<TrialArgs>();
+  auto* sub = app.add_subcommand(
+      "trial",
+      "The whole phantom trial, headless: devices (simulated tracker), US spatial and temporal calibration (PLUS "
+      "recording), robot and HMD calibration (simulated), registration on the generated cervical phantom, "
+      "navigation with deformation tracking and a simulated tracker loss, robot placement; writes a report folder");
+  sub->add_option("--out", args->out, "report folder (absent or empty)")->capture_default_str();
+  sub->add_option("--seed", args->seed, "random seed of the simulated devices")->capture_default_str();
+  sub->add_option("--navigation-s", args->navigation_s, "navigation run time, s")
+      ->check(CLI::Range(0.2, 600.0))
+      ->capture_default_str();
+  sub->add_option("--deformation-cases", args->deformation_cases, "deformation trial cases (paper: 6)")
+      ->check(CLI::Range(0, 20))
+      ->capture_default_str();
+  sub->add_flag("--progress", args->progress, "print progress lines on stderr");
+  addJsonFlag(*sub, options);
+  verbs.emplace_back(sub, [args]() -> Report {
+    workflow::TrialOptions trial;
+    trial.out = args->out;
+    trial.seed = args->seed;
+    trial.navigation_s = args->navigation_s;
+    trial.deformation_cases = args->deformation_cases;
+    if (args->progress) {
+      trial.context.progress = [](double f, const std::string& message) {
+        std::cerr << static_cast<int>(f * 100.0) << "% " << message << "\n";
+      };
+    }
+    const auto result = workflow::runPhantomTrial(trial);
+    Report report;
+    report.json = Json::parse(result.report.dump());
+    report.json.erase("log");
+    report.json["verb"] = "trial";
+    report.json["folder"] = result.folder.string();
+    report.json["index_html"] = result.index_html.string();
+    std::ostringstream text;
+    text << "phantom trial " << (result.ok ? "ok" : "FAILED") << " in " << result.report["seconds"].get<double>()
+         << " s; report " << result.index_html.string() << "\n";
+    for (const auto& [name, s] : result.report["steps"].items()) {
+      text << "  " << name << ": " << s.value("status", "?") << " - " << s.value("summary", "") << "\n";
+    }
+    report.text = text.str();
+    if (!result.ok) {
+      // The report is written; the exit code tells scripts the trial failed.
+      throw ComputationError("the phantom trial did not pass every step: see " + result.index_html.string());
+    }
+    return report;
+  });
+}
+
+}  // namespace mrsns::cli

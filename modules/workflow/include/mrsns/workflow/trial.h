@@ -1,0 +1,50 @@
+#pragma once
+// The whole phantom trial, headless (`mrsns-cli trial`, the GUI's "Run
+// trial"): every workflow step on a fresh session with the simulated tracker
+// and robot, the real PLUS recording for the ultrasound calibrations, the
+// generated cervical phantom for registration and placement, the posterior
+// shape model for deformation; then a report folder (report.json, index.html
+// with the figures beside paper 001's, snapshots when a renderer is given).
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "mrsns/workflow/steps.h"
+
+namespace mrsns::workflow {
+
+struct TrialOptions {
+  std::filesystem::path out;  ///< report folder (created; must be empty or absent)
+  std::uint64_t seed = 1;
+  /// Navigation run time (s) and deformation cases: the trial's cost.
+  double navigation_s = 2.0;
+  int deformation_cases = 3;
+  /// Tracker loss during navigation (the supervisor must stop the robot).
+  bool simulate_tracker_loss = true;
+  StepContext context;
+  /// Writes PNG snapshots into the folder and returns their file names; the
+  /// CLI passes one built on the rendering module (workflow has no VTK).
+  std::function<std::vector<std::string>(const std::filesystem::path& folder, const Session& session)> snapshots;
+};
+
+struct TrialResult {
+  bool ok = false;        ///< every step that could run succeeded
+  nlohmann::json report;  ///< what report.json holds
+  std::filesystem::path folder;
+  std::filesystem::path index_html;
+};
+
+/// Runs the trial. Throws FileError when `out` cannot be created or is not
+/// empty; step failures are recorded in the report, not thrown.
+TrialResult runPhantomTrial(const TrialOptions& options);
+
+/// Paper 001's published figures the report compares with.
+nlohmann::json paperReferenceFigures();
+
+/// index.html of a report (tables of figures beside the paper's, the images).
+std::string renderTrialHtml(const nlohmann::json& report);
+
+}  // namespace mrsns::workflow

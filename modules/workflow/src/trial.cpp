@@ -1,0 +1,130 @@
+// The phantom trial: every step on a fresh session, then the report.
+#include "mrsns/workflow/trial.h"
+
+#include <chrono>
+#include <fstream>
+
+#include "mrsns/core/data_dir.h"
+#include "mrsns/core/error.h"
+#include "mrsns/core/log.h"
+#include "time_text.h"
+
+namespace mrsns::workflow {
+
+namespace fs = std::filesystem;
+
+nlohmann::json paperReferenceFigures() {
+  // Paper 001 (Results) and PLUS's reference calibration of the fCal recording.
+  return {{"deformation_fiducial_point_error_mm", {{"mean", 2.19}, {"sd", 0.21}}},
+          {"deformation_mean_surface_distance_mm", {{"mean", 1.52}, {"sd", 0.43}}},
+          {"mr_calibration_rms_mm", {{"mean", 1.64}, {"sd", 0.48}}},
+          {"placement_distance_deviation_mm", {{"mean", 1.04}, {"sd", 0.27}}},
+          {"placement_angle_deviation_deg", {{"mean", 1.53}, {"sd", 0.41}}},
+          {"navigation_delay_ms", {{"mean", 247.0}, {"sd", 43.0}}},
+          {"tracker_accuracy_mm", 0.35},
+          {"plus_us_calibration_validation_mm", {{"mean", 1.24684}, {"sd", 0.493905}}}};
+}
+
+namespace {
+
+struct PlannedStep {
+  std::string name;
+  nlohmann::json params;
+  bool needs_plus_data = false;
+};
+
+}  // namespace
+
+TrialResult runPhantomTrial(const TrialOptions& options) {
+  if (options.out.empty()) throw InvalidArgumentError("trial: the report folder (--out) is empty");
+  std::error_code ec;
+  if (fs::exists(options.out, ec) && !fs::is_empty(options.out, ec)) {
+    throw FileError("trial report folder '" + options.out.string() +
+                    "' exists and is not empty: choose a new folder (nothing was overwritten)");
+  }
+  fs::create_directories(options.out, ec);
+  if (ec) throw FileError("cannot create trial report folder '" + options.out.string() + "': " + ec.message());
+  const auto start = std::chrono::steady_clock::now();
+  Session session = Session::create(options.out / "session");
+  const int seed = static_cast<int>(options.seed % 1000000);
+  nlohmann::json navigation = {
+      {"duration_s", options.navigation_s}, {"seed", seed}, {"deformation_cases", options.deformation_cases}};
+  if (options.simulate_tracker_loss) {
+    navigation["dropout_tool"] = "PatientToTracker";
+    navigation["dropout_start_s"] = options.navigation_s * 0.5;
+    navigation["dropout_duration_s"] = std::min(0.5, options.navigation_s * 0.25);
+  }
+  const std::vector<PlannedStep> plan = {
+      {"connect-devices", {{"duration_s", 0.5}, {"seed", seed}}},
+      {"us-spatial-calibration", nlohmann::json::object(), true},
+      {"us-temporal-calibration", nlohmann::json::object(), true},
+      {"robot-calibration", {{"seed", seed}}},
+      {"registration", {{"seed", seed}}},
+      {"hmd-calibration", {{"seed", seed}}},
+      {"navigation", navigation},
+      {"robot-placement", {{"seed", seed}}},
+  };
+  const bool have_plus = findDataFile("plus/fCal_Test_Calibration_3NWires.igs.mha").has_value();
+  TrialResult result;
+  result.ok = true;
+  result.folder = options.out;
+  nlohmann::json steps = nlohmann::json::object();
+  for (std::size_t i = 0; i < plan.size(); ++i) {
+    const auto& step = plan[i];
+    StepContext context;
+    context.cancel = options.context.cancel;
+    const double lo = static_cast<double>(i) / static_cast<double>(plan.size());
+    const double hi = static_cast<double>(i + 1) / static_cast<double>(plan.size());
+    context.progress = [&](double f, const std::string& message) {
+      options.context.report(lo + (hi - lo) * f, step.name + ": " + message);
+    };
+    if (step.needs_plus_data && !have_plus) {
+      steps[step.name] = {{"status", "skipped"},
+                          {"summary", "the PLUS recording is not in the data directory '" + dataDirectory().string() +
+                                          "' (set MRSNS_DATA_DIR)"}};
+      session.log("warn", step.name + " skipped: no PLUS recording");
+      continue;
+    }
+    try {
+      const auto r = runStep(session, step.name, step.params, context);
+      steps[step.name] = session.step(step.name);
+      if (r.cancelled) {
+        result.ok = false;
+        break;
+      }
+      result.ok = result.ok && r.ok;
+    } catch (const Error& e) {
+      steps[step.name] = {{"status", "failed"}, {"summary", e.what()}};
+      session.log("error", step.name + ": " + e.what());
+      result.ok = false;
+    }
+  }
+  std::vector<std::string> images;
+  if (options.snapshots) {
+    try {
+      images = options.snapshots(options.out, session);
+    } catch (const std::exception& e) {
+      logger()->warn("trial snapshots failed: {}", e.what());
+      session.log("warn", std::string("snapshots failed: ") + e.what());
+    }
+  }
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  auto& report = result.report;
+  report = {{"trial", "phantom"},
+            {"version", versionString()},
+            {"created", isoTimeNow()},
+            {"seed", options.seed},
+            {"ok", result.ok},
+            {"seconds", seconds},
+            {"session", "session"},
+            {"steps", steps},
+            {"paper", paperReferenceFigures()},
+            {"images", images},
+            {"log", session.state()["log"]}};
+  std::ofstream(options.out / "report.json") << report.dump(2) << '\n';
+  result.index_html = options.out / "index.html";
+  std::ofstream(result.index_html) << renderTrialHtml(report);
+  return result;
+}
+
+}  // namespace mrsns::workflow

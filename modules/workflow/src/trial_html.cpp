@@ -1,0 +1,132 @@
+// index.html of a trial report: one self-contained page, no scripts.
+#include <iomanip>
+#include <sstream>
+
+#include "mrsns/workflow/trial.h"
+
+namespace mrsns::workflow {
+
+namespace {
+
+std::string escape(const std::string& s) {
+  std::string out;
+  for (char c : s) {
+    switch (c) {
+      case '<': out += "&lt;"; break;
+      case '>': out += "&gt;"; break;
+      case '&': out += "&amp;"; break;
+      case '"': out += "&quot;"; break;
+      default: out += c;
+    }
+  }
+  return out;
+}
+
+// The value at a '/'-separated path, or null.
+nlohmann::json at(const nlohmann::json& j, const std::string& path) {
+  const nlohmann::json* cur = &j;
+  std::stringstream ss(path);
+  std::string part;
+  while (std::getline(ss, part, '/')) {
+    if (!cur->is_object() || !cur->contains(part)) return nullptr;
+    cur = &(*cur)[part];
+  }
+  return *cur;
+}
+
+std::string number(const nlohmann::json& v) {
+  if (!v.is_number()) return "&ndash;";
+  std::ostringstream s;
+  s << std::fixed << std::setprecision(2) << v.get<double>();
+  return s.str();
+}
+
+std::string meanSd(const nlohmann::json& v) {
+  if (v.is_number()) return number(v);
+  if (!v.is_object()) return "&ndash;";
+  return number(v["mean"]) + " &plusmn; " + number(v["sd"]);
+}
+
+}  // namespace
+
+std::string renderTrialHtml(const nlohmann::json& report) {
+  const auto& steps = report["steps"];
+  const auto& paper = report["paper"];
+  struct Row {
+    const char* what;
+    std::string ours;
+    std::string reference;
+    const char* note;
+  };
+  const std::string fig = "/figures/";
+  const std::vector<Row> rows = {
+      {"US calibration, validation 3D reprojection (mm)",
+       number(at(steps, "us-spatial-calibration" + fig + "validation/reprojection_3d_mean_mm")),
+       meanSd(paper["plus_us_calibration_validation_mm"]), "PLUS ProbeCalibration on the same recording"},
+      {"US temporal calibration, tracker lag (ms)",
+       number(at(steps, "us-temporal-calibration" + fig + "tracker_lag_ms")), "&ndash;", "PLUS's result assumes 0 ms"},
+      {"Registration, landmark FRE (mm)", number(at(steps, "registration" + fig + "landmarks/fre_rms_mm")), "&ndash;",
+       "8 fiducial screws, 0.5 mm FLE"},
+      {"Registration, TRE at the planned screws (mm, RMS)", number(at(steps, "registration" + fig + "surface/tre/rms")),
+       "&ndash;", "landmarks + ICP on the posterior bone"},
+      {"Robot calibration, error at the patient (mm)",
+       number(at(steps, "robot-calibration" + fig + "tre_at_patient_mm")), "&ndash;", "simulated UR5 + tracker"},
+      {"MR (HMD) calibration RMS (mm)", number(at(steps, "hmd-calibration" + fig + "rigid_rms_mm")),
+       meanSd(paper["mr_calibration_rms_mm"]), "calibration cube, Eq. 2-3"},
+      {"Deformation, mean surface distance E^SD (mm)",
+       number(at(steps, "navigation" + fig + "deformation/posterior_sd_mean_mm")),
+       meanSd(paper["deformation_mean_surface_distance_mm"]), "posterior shape model, Table I"},
+      {"Deformation, fiducial point error E^FP (mm)",
+       number(at(steps, "navigation" + fig + "deformation/posterior_fp_mm")),
+       meanSd(paper["deformation_fiducial_point_error_mm"]), "Table I"},
+      {"Placement, distance deviation at the entry (mm)",
+       number(at(steps, "robot-placement" + fig + "entry_error_mm/mean")),
+       meanSd(paper["placement_distance_deviation_mm"]), "C5/C6 pedicle screws"},
+      {"Placement, angle deviation (deg)", number(at(steps, "robot-placement" + fig + "angle_error_deg/mean")),
+       meanSd(paper["placement_angle_deviation_deg"]), ""},
+      {"Navigation loop latency (ms)", number(at(steps, "navigation" + fig + "mean_loop_latency_ms")),
+       meanSd(paper["navigation_delay_ms"]), "ours: tracking to hologram stream, no Wi-Fi/HMD"},
+  };
+  std::ostringstream h;
+  h << "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>MR-SNS phantom trial</title>\n"
+    << "<style>body{font-family:sans-serif;margin:2em;max-width:70em}table{border-collapse:collapse;margin:1em 0}"
+    << "td,th{border:1px solid #bbb;padding:.3em .6em;text-align:left}th{background:#eee}"
+    << ".ok{color:#070}.failed,.cancelled{color:#b00}.skipped{color:#a60}pre{background:#f6f6f6;padding:.5em;"
+    << "overflow:auto;max-height:25em}img{max-width:45%;margin:.5em;border:1px solid #ccc}</style></head><body>\n"
+    << "<h1>MR-SNS phantom trial</h1>\n<p>Version " << escape(report.value("version", "")) << ", "
+    << escape(report.value("created", "")) << ", seed " << report.value("seed", 0) << ", " << number(report["seconds"])
+    << " s. Overall: <b class=\"" << (report.value("ok", false) ? "ok\">ok" : "failed\">FAILED")
+    << "</b>.</p>\n<h2>Figures beside the papers</h2>\n<table><tr><th>Figure</th><th>This trial</th>"
+    << "<th>Paper 001 / PLUS</th><th>Note</th></tr>\n";
+  for (const auto& r : rows) {
+    h << "<tr><td>" << r.what << "</td><td>" << r.ours << "</td><td>" << r.reference << "</td><td>" << r.note
+      << "</td></tr>\n";
+  }
+  h << "</table>\n<h2>Steps</h2>\n<table><tr><th>Step</th><th>Status</th><th>Summary</th></tr>\n";
+  for (const auto& [name, s] : steps.items()) {
+    const std::string status = s.value("status", "?");
+    h << "<tr><td>" << escape(name) << "</td><td class=\"" << escape(status) << "\">" << escape(status) << "</td><td>"
+      << escape(s.value("summary", "")) << "</td></tr>\n";
+  }
+  h << "</table>\n";
+  if (report.contains("images") && !report["images"].empty()) {
+    h << "<h2>Snapshots</h2>\n";
+    for (const auto& img : report["images"]) {
+      h << "<img src=\"" << escape(img.get<std::string>()) << "\" alt=\"" << escape(img.get<std::string>()) << "\">\n";
+    }
+  }
+  h << "<h2>Session log</h2>\n<pre>";
+  for (const auto& line : report["log"]) {
+    h << escape(line.value("time", "")) << ' ' << escape(line.value("level", "")) << ' '
+      << escape(line.value("message", "")) << '\n';
+  }
+  h << "</pre>\n<h2>All figures</h2>\n";
+  for (const auto& [name, s] : steps.items()) {
+    h << "<h3>" << escape(name) << "</h3><pre>" << escape(s.contains("figures") ? s["figures"].dump(2) : "{}")
+      << "</pre>\n";
+  }
+  h << "</body></html>\n";
+  return h.str();
+}
+
+}  // namespace mrsns::workflow
