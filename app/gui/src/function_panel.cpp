@@ -18,18 +18,16 @@ FunctionPanel::FunctionPanel(QWidget* parent) : QWidget(parent) {
   layout->setContentsMargins(6, 2, 6, 6);
   layout->setSpacing(10);
 
-  navigation_ = new StepList(tr("Navigation"), this);
-  robot_ = new StepList(tr("Robot"), this);
-  auto* stop = new QPushButton(tr("Stop robot"), robot_);
+  navigation_ = new StepList(tr("Navigation and robot"), this);
+  stop_ = new QPushButton(tr("Stop robot"), navigation_);
+  auto* stop = stop_;
   stop->setObjectName(QStringLiteral("robotStop"));
   stop->setProperty("danger", true);
   stop->setToolTip(tr("Cancels the running robot task; the supervisor halts the arm (Esc)"));
-  static_cast<QGridLayout*>(robot_->layout())->addWidget(stop, 0, 0, 1, 2);
+  navigation_->addWidgetRow(stop);
   connect(stop, &QPushButton::clicked, this, &FunctionPanel::robotStopRequested);
-  for (auto* list : {navigation_, robot_}) {
-    layout->addWidget(list);
-    connect(list, &StepList::runRequested, this, &FunctionPanel::runStepRequested);
-  }
+  layout->addWidget(navigation_);
+  connect(navigation_, &StepList::runRequested, this, &FunctionPanel::runStepRequested);
 
   auto* mr = new QGroupBox(tr("Mixed reality"), this);
   auto* mr_layout = new QGridLayout(mr);
@@ -65,7 +63,7 @@ FunctionPanel::FunctionPanel(QWidget* parent) : QWidget(parent) {
     auto* box = new QCheckBox(text, display);
     box->setObjectName(QString::fromLatin1(name));
     box->setChecked(true);
-    display_layout->addWidget(box, i / 2, i % 2);
+    display_layout->addWidget(box, i / 3, i % 3);
     layers_.emplace_back(layer, box);
     connect(box, &QCheckBox::toggled, this, [this, l = layer](bool on) { emit layerToggled(l, on); });
     ++i;
@@ -73,7 +71,7 @@ FunctionPanel::FunctionPanel(QWidget* parent) : QWidget(parent) {
   auto* reset = new QPushButton(tr("Reset camera"), display);
   reset->setObjectName(QStringLiteral("resetCamera"));
   reset->setToolTip(tr("Fit the 3D view to the scene (Home)"));
-  display_layout->addWidget(reset, (i + 1) / 2, 0, 1, 2);
+  display_layout->addWidget(reset, 0, 3, 2, 1);
   connect(reset, &QPushButton::clicked, this, &FunctionPanel::resetCameraRequested);
   layout->addWidget(display);
   layout->addStretch(1);
@@ -82,18 +80,16 @@ FunctionPanel::FunctionPanel(QWidget* parent) : QWidget(parent) {
 void FunctionPanel::setSteps(const std::vector<StepEntry>& steps) {
   for (const auto& step : steps) {
     if (step.area != QLatin1String("function")) continue;
-    StepList* list = step.name.contains(QLatin1String("robot")) ? robot_ : navigation_;
-    if (!list->hasStep(step.name)) list->addStep(step);
+    if (!navigation_->hasStep(step.name)) navigation_->addStep(step);
   }
+  navigation_->addWidgetRow(stop_);  // Stop stays below the steps
 }
 
 void FunctionPanel::setStepState(const QString& step, StepState state, const QString& detail) {
-  robot_->setStepState(step, state, detail);
   navigation_->setStepState(step, state, detail);
 }
 
 void FunctionPanel::setBusy(bool busy) {
-  robot_->setBusy(busy);
   navigation_->setBusy(busy);
 }
 

@@ -40,8 +40,8 @@ class FunctionPanel : public QWidget {
   void resetCameraRequested();
 
  private:
-  StepList* robot_ = nullptr;
   StepList* navigation_ = nullptr;
+  QPushButton* stop_ = nullptr;
   QPushButton* stream_button_ = nullptr;
   QSpinBox* stream_port_ = nullptr;
   QLabel* stream_status_ = nullptr;

@@ -45,21 +45,25 @@ std::filesystem::path toPath(const QString& s) {
   return std::filesystem::path(s.toStdString());
 }
 
-QDockWidget* makeDock(QMainWindow* window, const QString& title, const QString& name, QWidget* content, bool scroll) {
+/// A dock around `content`, scrolling along `scroll` only (the panel reflows
+/// to the other dimension), so no panel forces a minimum window size.
+QDockWidget* makeDock(QMainWindow* window, const QString& title, const QString& name, QWidget* content,
+                      Qt::Orientation scroll) {
   auto* dock = new QDockWidget(title, window);
   dock->setObjectName(name + QStringLiteral("Dock"));
   dock->setFeatures(QDockWidget::DockWidgetMovable | QDockWidget::DockWidgetFloatable |
                     QDockWidget::DockWidgetClosable);
   content->setObjectName(name);
-  if (scroll) {
-    auto* area = new QScrollArea(dock);
-    area->setWidget(content);
-    area->setWidgetResizable(true);
-    area->setFrameShape(QFrame::NoFrame);
-    dock->setWidget(area);
+  auto* area = new QScrollArea(dock);
+  area->setWidget(content);
+  area->setWidgetResizable(true);
+  if (scroll == Qt::Vertical) {
+    area->setHorizontalScrollBarPolicy(Qt::ScrollBarAlwaysOff);
   } else {
-    dock->setWidget(content);
+    area->setVerticalScrollBarPolicy(Qt::ScrollBarAlwaysOff);
   }
+  area->setFrameShape(QFrame::NoFrame);
+  dock->setWidget(area);
   return dock;
 }
 
@@ -100,12 +104,12 @@ MainWindow::MainWindow(MainWindowOptions options, QWidget* parent) : QMainWindow
   preparation_->setSteps(steps);
   function_->setSteps(steps);
 
-  preparation_dock_ = makeDock(this, tr("Preparation"), QStringLiteral("preparationArea"), preparation_, true);
-  function_dock_ = makeDock(this, tr("Function"), QStringLiteral("functionArea"), function_, true);
-  output_dock_ = makeDock(this, tr("Output"), QStringLiteral("outputArea"), output_, false);
-  // Fig. 4: preparation left, output right, the function strip under the display.
+  preparation_dock_ = makeDock(this, tr("Preparation"), QStringLiteral("preparationArea"), preparation_, Qt::Vertical);
+  function_dock_ = makeDock(this, tr("Function"), QStringLiteral("functionArea"), function_, Qt::Horizontal);
+  output_dock_ = makeDock(this, tr("Output"), QStringLiteral("outputArea"), output_, Qt::Vertical);
+  // Fig. 4: preparation left, output right, the function strip under display and output.
   setCorner(Qt::BottomLeftCorner, Qt::LeftDockWidgetArea);
-  setCorner(Qt::BottomRightCorner, Qt::RightDockWidgetArea);
+  setCorner(Qt::BottomRightCorner, Qt::BottomDockWidgetArea);
   addDockWidget(Qt::LeftDockWidgetArea, preparation_dock_);
   addDockWidget(Qt::BottomDockWidgetArea, function_dock_);
   addDockWidget(Qt::RightDockWidgetArea, output_dock_);
@@ -430,7 +434,7 @@ bool MainWindow::saveSessionAs(const QString& folder) {
 void MainWindow::showSession() {
   const QString folder = sessionFolder();
   setWindowTitle(tr("MR-SNS — %1").arg(QDir(folder).dirName()));
-  preparation_->setSessionText(folder);
+  preparation_->setSessionText(QDir(folder).dirName(), folder);
   session_status_->setText(tr("Session: %1").arg(folder));
   const nlohmann::json state = session_->state();
   output_->showSessionState(state);

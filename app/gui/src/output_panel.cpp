@@ -138,7 +138,7 @@ OutputPanel::OutputPanel(QWidget* parent) : QWidget(parent) {
   deformation_plot_ =
       makePlot("plotDeformation", tr("Deformation"), tr("Soft-tissue model error over time"), tr("time (s)"), tr("mm"));
   distance_plot_ = makePlot("plotDistance", tr("Distance"), tr("Drill tip to soft tissue"), tr("time (s)"), tr("mm"));
-  plots_->setMinimumHeight(200);
+  plots_->setMinimumHeight(170);
   layout->addWidget(plots_, 1);
 
   auto* figures = new QGroupBox(tr("All step figures"), this);

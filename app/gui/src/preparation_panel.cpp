@@ -48,7 +48,7 @@ PreparationPanel::PreparationPanel(QWidget* parent) : QWidget(parent) {
   auto* pivot = new QPushButton(tr("Pivot calibration…"), calibration_);
   pivot->setObjectName(QStringLiteral("pivotCalibration"));
   pivot->setToolTip(tr("Tip offset of a tracked pointer from a pose file (CSV) recorded while pivoting"));
-  static_cast<QGridLayout*>(calibration_->layout())->addWidget(pivot, 0, 0);
+  calibration_->addWidgetRow(pivot);
   import_buttons_.push_back(pivot);
   connect(pivot, &QPushButton::clicked, this, &PreparationPanel::pivotCalibrationRequested);
   for (auto* list : {devices_, registration_, calibration_}) {
@@ -71,8 +71,10 @@ void PreparationPanel::setSteps(const std::vector<StepEntry>& steps) {
   }
 }
 
-void PreparationPanel::setSessionText(const QString& text) {
-  session_label_->setText(text);
+void PreparationPanel::setSessionText(const QString& name, const QString& folder) {
+  // The folder name reads at a glance; the full path is in the tooltip and the status bar.
+  session_label_->setText(QStringLiteral("<b>%1</b>").arg(name.toHtmlEscaped()));
+  session_label_->setToolTip(folder);
 }
 
 void PreparationPanel::setStepState(const QString& step, StepState state, const QString& detail) {

@@ -20,7 +20,7 @@ class PreparationPanel : public QWidget {
 
   /// Creates the step rows for the steps of area "preparation".
   void setSteps(const std::vector<StepEntry>& steps);
-  void setSessionText(const QString& text);
+  void setSessionText(const QString& name, const QString& folder);
   void setStepState(const QString& step, StepState state, const QString& detail = {});
   void setBusy(bool busy);
 

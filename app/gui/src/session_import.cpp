@@ -1,6 +1,7 @@
 #include "session_import.h"
 
 #include <algorithm>
+#include <optional>
 #include <set>
 
 #include "mrsns/core/error.h"
@@ -59,6 +60,15 @@ void collectStrings(const nlohmann::json& j, std::vector<std::string>& out, std:
   } else if (j.is_structured()) {
     for (const auto& e : j) collectStrings(e, out, seen);
   }
+}
+
+std::optional<Eigen::Vector3d> vector3(const nlohmann::json& object, const char* key) {
+  if (!object.is_object() || !object.contains(key)) return std::nullopt;
+  const auto& v = object[key];
+  if (!v.is_array() || v.size() != 3 || !v[0].is_number() || !v[1].is_number() || !v[2].is_number()) {
+    return std::nullopt;
+  }
+  return Eigen::Vector3d(v[0].get<double>(), v[1].get<double>(), v[2].get<double>());
 }
 
 void report(const TaskControl& control, double fraction, const std::string& message) {
@@ -214,6 +224,22 @@ std::map<std::string, TriangleMesh> loadSessionScene(const workflow::Session& se
       }
     } catch (const mrsns::Error& e) {
       problems.push_back(e.what());
+    }
+  }
+  // Planned screw paths recorded by the steps (e.g. registration's
+  // figures.paths: name, entry_ct, target_ct in CT mm).
+  const auto& steps = session.state().contains("steps") ? session.state()["steps"] : nlohmann::json::object();
+  for (const auto& [step, record] : steps.items()) {
+    if (!record.is_object() || !record.contains("figures") || !record["figures"].is_object()) continue;
+    const auto& figures = record["figures"];
+    if (!figures.contains("paths") || !figures["paths"].is_array()) continue;
+    for (const auto& path : figures["paths"]) {
+      const auto entry = vector3(path, "entry_ct");
+      const auto target = vector3(path, "target_ct");
+      if (!entry || !target) continue;
+      const std::string name = path.value("name", std::to_string(path_index));
+      scene.setScrewPath("path:" + name, *entry, *target, 3.5, Eigen::Vector3d(0.30, 0.75, 0.95));
+      ++path_index;
     }
   }
   if (!problems.empty()) {

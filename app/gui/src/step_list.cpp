@@ -16,7 +16,7 @@ StepList::StepList(const QString& title, QWidget* parent) : QGroupBox(title, par
 
 QPushButton* StepList::addStep(const StepEntry& step) {
   auto* grid = static_cast<QGridLayout*>(layout());
-  const int row = grid->rowCount();
+  const int row = next_row_++;
   auto* button = new QPushButton(step.title, this);
   button->setObjectName(QStringLiteral("step_") + step.name);
   button->setToolTip(step.description.isEmpty() ? tr("Run the step \"%1\" on the open session").arg(step.name)
@@ -30,6 +30,12 @@ QPushButton* StepList::addStep(const StepEntry& step) {
   rows_[step.name] = Row{button, status};
   connect(button, &QPushButton::clicked, this, [this, name = step.name] { emit runRequested(name); });
   return button;
+}
+
+void StepList::addWidgetRow(QWidget* widget) {
+  auto* grid = static_cast<QGridLayout*>(layout());
+  grid->removeWidget(widget);
+  grid->addWidget(widget, next_row_++, 0, 1, 2);
 }
 
 void StepList::setStepState(const QString& name, StepState state, const QString& detail) {

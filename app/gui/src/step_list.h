@@ -28,6 +28,8 @@ class StepList : public QGroupBox {
 
   /// Adds a row; its button is named "step_<name>" (for tests and shortcuts).
   QPushButton* addStep(const StepEntry& step);
+  /// Adds a widget spanning the row below the last one (e.g. a button that is not a step).
+  void addWidgetRow(QWidget* widget);
   [[nodiscard]] bool hasStep(const QString& name) const { return rows_.count(name) != 0; }
   [[nodiscard]] bool isEmpty() const { return rows_.empty(); }
   void setStepState(const QString& name, StepState state, const QString& detail = {});
@@ -43,6 +45,7 @@ class StepList : public QGroupBox {
     QLabel* status = nullptr;
   };
   std::map<QString, Row> rows_;
+  int next_row_ = 0;
 };
 
 }  // namespace mrsns::gui
