@@ -24,9 +24,11 @@
 #include "main_window.h"
 #include "message_presenter.h"
 #include "mrsns/core/error.h"
+#include "mrsns/io/image_io.h"
 #include "mrsns/io/mesh_io.h"
 #include "mrsns/io/pose_csv.h"
 #include "mrsns/rendering/scene.h"
+#include "mrsns/rendering/slice_views.h"
 #include "mrsns/rendering/tool_models.h"
 #include "mrsns/workflow/session.h"
 #include "mrsns/workflow/steps.h"
@@ -226,6 +228,36 @@ TEST_F(MainWindowTest, ImportedMeshIsCopiedRecordedAndShown) {
   EXPECT_FALSE(layer->isChecked());
   EXPECT_TRUE(window->displayArea()->scene().contains("vertebra:C5_model"));
   screenshot(*window, "main_window_imported_mesh.png");
+}
+
+TEST_F(MainWindowTest, ImportedCtBringsUpTheThreeSliceViews) {
+  auto window = makeWindow();
+  ASSERT_TRUE(window->createSession(QString::fromStdString((scratch_ / "session").string()))) << messages();
+  // No CT yet: the slice views make room for the 3D view.
+  EXPECT_FALSE(window->findChild<QWidget*>("sliceViews")->isVisible());
+  mrsns::ImageVolume ct;
+  ct.size = {40, 36, 24};
+  ct.spacing = Eigen::Vector3d(0.8, 0.8, 1.5);
+  ct.pixel_type = mrsns::PixelType::Int16;
+  ct.data.resize(ct.byteCount());
+  auto* voxels = reinterpret_cast<std::int16_t*>(ct.data.data());
+  for (std::size_t i = 0; i < ct.voxelCount(); ++i) voxels[i] = static_cast<std::int16_t>((i % 40) * 25 - 500);
+  const auto file = scratch_ / "ct.nrrd";
+  mrsns::io::writeImage(ct, file);
+  QSignalSpy finished(window.get(), &MainWindow::taskFinished);
+  ASSERT_TRUE(window->importFile(mrsns::gui::ImportKind::CtImage, QString::fromStdString(file.string())));
+  ASSERT_TRUE(mrsns::test::waitUntil([&] { return !finished.isEmpty(); }, 20000));
+  ASSERT_TRUE(finished.first().at(1).toBool()) << messages();
+  EXPECT_TRUE(window->displayArea()->slices().hasVolume());
+  EXPECT_TRUE(window->findChild<QWidget*>("sliceViews")->isVisible());
+  for (const char* view : {"viewAxial", "viewSagittal", "viewCoronal"}) {
+    EXPECT_TRUE(window->findChild<QWidget*>(view)->isVisible()) << view;
+  }
+  // The Slice views toggle hides them again.
+  window->findChild<QCheckBox*>("layerSliceViews")->setChecked(false);
+  EXPECT_FALSE(window->findChild<QWidget*>("sliceViews")->isVisible());
+  window->findChild<QCheckBox*>("layerSliceViews")->setChecked(true);
+  screenshot(*window, "main_window_imported_ct.png");
 }
 
 TEST_F(MainWindowTest, PivotCalibrationFromAPoseFileShowsResidualsPerPose) {

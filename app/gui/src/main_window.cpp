@@ -25,6 +25,7 @@
 #include "mrsns/core/log.h"
 #include "mrsns/igtlink/server.h"
 #include "mrsns/rendering/scene.h"
+#include "mrsns/rendering/slice_views.h"
 #include "mrsns/tracking/hologram_streamer.h"
 #include "mrsns/workflow/session.h"
 #include "mrsns/workflow/steps.h"
@@ -130,7 +131,7 @@ MainWindow::MainWindow(MainWindowOptions options, QWidget* parent) : QMainWindow
   });
   connect(function_, &FunctionPanel::layerToggled, this, [this](DisplayLayer layer, bool visible) {
     if (layer == DisplayLayer::SliceViews) {
-      display_->setSliceViewsVisible(visible);
+      display_->setSliceViewsVisible(visible && display_->slices().hasVolume());
       return;
     }
     applyLayerVisibility(display_->scene(), layer, visible);
@@ -468,6 +469,8 @@ void MainWindow::populateScene() {
                      DisplayLayer::Ultrasound}) {
     applyLayerVisibility(scene, layer, function_->layerVisible(layer));
   }
+  // Without a CT the slice views would be three black boxes: give the 3D view the room.
+  display_->setSliceViewsVisible(function_->layerVisible(DisplayLayer::SliceViews) && display_->slices().hasVolume());
   display_->resetCamera();
 }
 
