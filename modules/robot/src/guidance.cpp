@@ -32,6 +32,7 @@ Guidance::Guidance(const Ur5Kinematics& kinematics, const Eigen::Isometry3d& fla
                    const GuidanceOptions& options)
     : kinematics_(kinematics), flange_T_tip_(flange_T_tip), options_(options) {
   if (!(options.approach_speed_mm_s > 0) || !(options.approach_rotation_speed_rad_s > 0) ||
+      !(options.approach_acceleration_mm_s2 > 0) || !(options.approach_angular_acceleration_rad_s2 > 0) ||
       !(options.advance_speed_mm_s > 0) || !(options.retract_speed_mm_s > 0) || !(options.align_tolerance_mm > 0) ||
       !(options.align_tolerance_rad > 0) || !(options.standoff_mm >= 0)) {
     throw InvalidArgumentError("Guidance: speeds and tolerances must be positive and standoff_mm >= 0");
@@ -43,6 +44,8 @@ void Guidance::start(const ArmState& arm) {
   phase_ = GuidancePhase::Approach;
   depth_ = -options_.standoff_mm;
   settled_ = 0;
+  linear_speed_ = 0;
+  angular_speed_ = 0;
 }
 
 void Guidance::retract() {
@@ -68,15 +71,22 @@ GuidanceCommand Guidance::update(const ArmState& arm, const AxisInBase& axis, do
   }
   const double full_depth = options_.depth_mm > 0 ? options_.depth_mm : axis.length_mm;
   if (phase_ == GuidancePhase::Approach) {
-    // Move the commanded pose toward the stand-off pose at bounded linear and angular speed.
+    // Move the commanded pose toward the stand-off pose on trapezoidal profiles (bounded speed and
+    // acceleration, braking to arrive at rest): a step in the commanded speed would make the servo lag and
+    // then overshoot the speed limit catching up.
     const Eigen::Isometry3d goal = tipPoseOnAxis(axis, -options_.standoff_mm);
     const Eigen::Vector3d dp = goal.translation() - commanded_tip_.translation();
-    const double step = options_.approach_speed_mm_s * dt_s;
     const double dist = dp.norm();
+    linear_speed_ = std::min({linear_speed_ + options_.approach_acceleration_mm_s2 * dt_s, options_.approach_speed_mm_s,
+                              std::sqrt(2.0 * options_.approach_acceleration_mm_s2 * dist)});
+    const double step = linear_speed_ * dt_s;
     commanded_tip_.translation() += dist > step ? (step / dist) * dp : dp;
     const Eigen::Vector3d phi = so3Log(commanded_tip_.linear().transpose() * goal.linear());
-    const double rstep = options_.approach_rotation_speed_rad_s * dt_s;
     const double angle = phi.norm();
+    angular_speed_ = std::min({angular_speed_ + options_.approach_angular_acceleration_rad_s2 * dt_s,
+                               options_.approach_rotation_speed_rad_s,
+                               std::sqrt(2.0 * options_.approach_angular_acceleration_rad_s2 * angle)});
+    const double rstep = angular_speed_ * dt_s;
     commanded_tip_.linear() = commanded_tip_.linear() * so3Exp(angle > rstep ? (rstep / angle) * phi : phi);
     const Eigen::Isometry3d actual_tip = arm.base_T_flange * flange_T_tip_;
     const bool within = (actual_tip.translation() - goal.translation()).norm() < options_.align_tolerance_mm &&

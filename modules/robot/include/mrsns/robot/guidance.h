@@ -19,6 +19,8 @@ struct GuidanceOptions {
   double standoff_mm = 20.0;  ///< the approach ends this far before the entry, on the axis
   double approach_speed_mm_s = 40.0;
   double approach_rotation_speed_rad_s = 0.25;
+  double approach_acceleration_mm_s2 = 100.0;
+  double approach_angular_acceleration_rad_s2 = 1.0;
   double align_tolerance_mm = 0.2;  ///< commanded tip to stand-off point
   double align_tolerance_rad = 0.004;
   int align_settle_cycles = 100;  ///< the tolerance must hold this long (the axis estimate is filtered)
@@ -80,6 +82,8 @@ class Guidance {
   Eigen::Isometry3d commanded_tip_ = Eigen::Isometry3d::Identity();  // base_T_tip being commanded
   double depth_ = 0;
   int settled_ = 0;
+  double linear_speed_ = 0;   // approach profile, mm/s
+  double angular_speed_ = 0;  // approach profile, rad/s
 };
 
 }  // namespace mrsns::robot
