@@ -20,7 +20,8 @@ TEST(OutputPanel, FormatsFiguresWithTheUnitOfTheirSuffix) {
   EXPECT_EQ(formatFigure("frames", 42), QStringLiteral("42"));
   EXPECT_EQ(formatFigure("ok", true), QStringLiteral("yes"));
   EXPECT_EQ(formatFigure("state", "halted"), QStringLiteral("halted"));
-  EXPECT_EQ(formatFigure("list", nlohmann::json::array({1, 2, 3})), QStringLiteral("[3 values]"));
+  EXPECT_EQ(formatFigure("size_px", nlohmann::json::array({40, 36, 24})), QStringLiteral("40, 36, 24 px"));
+  EXPECT_EQ(formatFigure("list", nlohmann::json::array({1, 2, 3, 4, 5})), QStringLiteral("[5 values]"));
   EXPECT_EQ(formatFigure("nan_mm", std::nan("")), QStringLiteral("—"));
 }
 

@@ -4,6 +4,7 @@
 #include <QGroupBox>
 #include <QHeaderView>
 #include <QLabel>
+#include <QStringList>
 #include <QTabWidget>
 #include <QTreeWidget>
 #include <QVBoxLayout>
@@ -78,7 +79,16 @@ QString formatFigure(const std::string& key, const nlohmann::json& value) {
   if (value.is_number()) return QString::number(value.get<long long>()) + unitOf(key);
   if (value.is_boolean()) return value.get<bool>() ? QStringLiteral("yes") : QStringLiteral("no");
   if (value.is_string()) return QString::fromStdString(value.get<std::string>());
-  if (value.is_array()) return QStringLiteral("[%1 values]").arg(value.size());
+  if (value.is_array()) {
+    // Short vectors (a size, a spacing, a point) read better spelled out.
+    const auto v = numbers(value);
+    if (!v.empty() && v.size() <= 4) {
+      QStringList parts;
+      for (double x : v) parts << QString::number(x, 'g', 5);
+      return parts.join(QStringLiteral(", ")) + unitOf(key);
+    }
+    return QStringLiteral("[%1 values]").arg(value.size());
+  }
   if (value.is_null()) return QStringLiteral("—");
   return QString::fromStdString(value.dump());
 }
