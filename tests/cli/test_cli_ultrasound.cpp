@@ -2,7 +2,9 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Core>
+#include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <numbers>
@@ -59,6 +61,50 @@ TEST(CliUltrasound, CalibrateUsOnPlusRecordings) {
               validation.string(), "--reference-results", results.string(), "--objective", "middle-wire", "--json"});
   ASSERT_EQ(m.exit_code, 0) << m.err;
   EXPECT_LT(nlohmann::json::parse(m.out)["reference"]["max_corner_distance_mm"].get<double>(), 1.0);
+}
+
+// The lag estimated from the calibration sweep, the configuration written
+// with it, and that configuration driving a volume reconstruction of the
+// same sweep in the phantom's frame.
+TEST(CliUltrasound, EstimatedLagCalibrationFeedsVolumeReconstruction) {
+  MRSNS_REQUIRE_DATA(config, "plus/PlusDeviceSet_fCal_Sim_SpatialCalibration_1.2.xml");
+  MRSNS_REQUIRE_DATA(calibration, "plus/fCal_Test_Calibration_3NWires.igs.mha");
+  MRSNS_REQUIRE_DATA(validation, "plus/fCal_Test_Validation_3NWires.igs.mha");
+  const auto dir = scratchDirectory("calibrate-us-lag");
+  const auto out_config = dir / "calibrated.xml";
+  const auto r = runCli({"calibrate-us", "--config", config.string(), "--calibration", calibration.string(),
+                         "--validation", validation.string(), "--objective", "middle-wire", "--tracker-lag-ms", "auto",
+                         "--output-config", out_config.string(), "--json"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_TRUE(j["tracker_lag_estimated"].get<bool>());
+  // Within one frame period (79 ms) of the 485 ms the module test pins down.
+  EXPECT_NEAR(j["tracker_lag_ms"].get<double>(), 485.0, 79.0);
+  EXPECT_EQ(j["tracker_lag_curve"].size(), 101u);
+  EXPECT_LT(j["validation"]["reprojection_3d_mm"]["mean"].get<double>(), 0.75);
+
+  const auto volume = dir / "sweep.nrrd";
+  const auto v = runCli({"reconstruct-volume", "--config", out_config.string(), "--sequence", calibration.string(),
+                         "--tracker-lag-ms", std::to_string(j["tracker_lag_ms"].get<double>()), "--to", "Phantom",
+                         "--spacing", "1.0", "--every", "3", "--out", volume.string(), "--json"});
+  ASSERT_EQ(v.exit_code, 0) << v.err;
+  const auto vj = nlohmann::json::parse(v.out);
+  EXPECT_EQ(vj["frame"], "Phantom");
+  EXPECT_GE(vj["frames"].get<int>(), 55);
+  EXPECT_GT(vj["filled_fraction"].get<double>(), 0.2);
+  EXPECT_EQ(vj["size"].size(), 3u);
+  EXPECT_TRUE(std::filesystem::exists(volume));
+
+  // The shipped configuration has no ImageToProbe yet: one line, exit 1.
+  const auto bad = runCli({"reconstruct-volume", "--config", config.string(), "--sequence", calibration.string(),
+                           "--out", (dir / "x.nrrd").string(), "--json"});
+  EXPECT_EQ(bad.exit_code, 1);
+  EXPECT_NE(bad.err.find("ImageToProbe"), std::string::npos) << bad.err;
+  EXPECT_EQ(std::count(bad.err.begin(), bad.err.end(), '\n'), 1) << bad.err;
+  const auto lag = runCli({"calibrate-us", "--config", config.string(), "--calibration", calibration.string(),
+                           "--validation", validation.string(), "--tracker-lag-ms", "soon", "--json"});
+  EXPECT_EQ(lag.exit_code, 1);
+  EXPECT_NE(lag.err.find("--tracker-lag-ms"), std::string::npos) << lag.err;
 }
 
 TEST(CliUltrasound, CalibrateUsRefusesConfigWithoutPhantom) {
