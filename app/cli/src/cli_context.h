@@ -48,6 +48,7 @@ void registerDeformTrialVerb(CLI::App& app, GlobalOptions& options, VerbList& ve
 void registerUltrasoundVerbs(CLI::App& app, GlobalOptions& options, VerbList& verbs);
 void registerSessionVerbs(CLI::App& app, GlobalOptions& options, VerbList& verbs);
 void registerTrialVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs);
+void registerHmdCheckerboardVerbs(CLI::App& app, GlobalOptions& options, VerbList& verbs);
 
 /// Adds the --json flag to a subcommand (every verb has it).
 void addJsonFlag(CLI::App& sub, GlobalOptions& options);

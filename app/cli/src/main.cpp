@@ -50,6 +50,7 @@ int main(int argc, char** argv) {
   registerUltrasoundVerbs(app, options, verbs);
   registerSessionVerbs(app, options, verbs);
   registerTrialVerb(app, options, verbs);
+  registerHmdCheckerboardVerbs(app, options, verbs);
 
   try {
     app.parse(argc, argv);
