@@ -46,6 +46,9 @@ void registerMakePhantomVerb(CLI::App& app, GlobalOptions& options, VerbList& ve
 void registerSsmVerbs(CLI::App& app, GlobalOptions& options, VerbList& verbs);
 void registerDeformTrialVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs);
 void registerUltrasoundVerbs(CLI::App& app, GlobalOptions& options, VerbList& verbs);
+void registerHmdTrialVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs);
+void registerHmdCalibrateCubeVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs);
+void registerLatencyVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs);
 void registerSessionVerbs(CLI::App& app, GlobalOptions& options, VerbList& verbs);
 void registerTrialVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs);
 void registerHmdCheckerboardVerbs(CLI::App& app, GlobalOptions& options, VerbList& verbs);

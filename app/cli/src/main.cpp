@@ -48,6 +48,9 @@ int main(int argc, char** argv) {
   registerSsmVerbs(app, options, verbs);
   registerDeformTrialVerb(app, options, verbs);
   registerUltrasoundVerbs(app, options, verbs);
+  registerHmdTrialVerb(app, options, verbs);
+  registerHmdCalibrateCubeVerb(app, options, verbs);
+  registerLatencyVerb(app, options, verbs);
   registerSessionVerbs(app, options, verbs);
   registerTrialVerb(app, options, verbs);
   registerHmdCheckerboardVerbs(app, options, verbs);
