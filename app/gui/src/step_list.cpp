@@ -6,6 +6,8 @@
 #include <QStyle>
 #include <QVariant>
 
+#include "output_panel.h"
+
 namespace mrsns::gui {
 
 StepList::StepList(const QString& title, QWidget* parent) : QGroupBox(title, parent) {
@@ -60,6 +62,38 @@ void StepList::setStepState(const QString& name, StepState state, const QString&
 
 void StepList::setBusy(bool busy) {
   for (auto& [name, row] : rows_) row.button->setEnabled(!busy);
+}
+
+/// The headline figure shown next to a step's button.
+namespace {
+
+const nlohmann::json* findLeaf(const nlohmann::json& figures, const char* needle, int depth, std::string* key) {
+  for (auto it = figures.begin(); it != figures.end(); ++it) {
+    const std::string& k = it.key();
+    if (k.find("expected") != std::string::npos || k.find("paper") != std::string::npos ||
+        k.find("noise") != std::string::npos || k.find("predicted") != std::string::npos ||
+        k.find("truth") != std::string::npos) {
+      continue;
+    }
+    if (it->is_number() && k.find(needle) != std::string::npos) return *key = k, &*it;
+    if (it->is_object() && depth > 0) {
+      if (const auto* leaf = findLeaf(*it, needle, depth - 1, key)) return leaf;
+    }
+  }
+  return nullptr;
+}
+
+}  // namespace
+
+QString stepHeadline(const nlohmann::json& figures) {
+  if (!figures.is_object()) return {};
+  std::string key;
+  for (const char* needle : {"fre", "reprojection_3d_mean", "lag", "rms", "error", "offset"}) {
+    if (const auto* leaf = findLeaf(figures, needle, 1, &key)) {
+      return QString::fromStdString(key) + QStringLiteral(" ") + formatFigure(key, *leaf);
+    }
+  }
+  return {};
 }
 
 }  // namespace mrsns::gui

@@ -5,6 +5,7 @@
 #include <QGroupBox>
 #include <QString>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <vector>
 
 class QLabel;
@@ -47,5 +48,8 @@ class StepList : public QGroupBox {
   std::map<QString, Row> rows_;
   int next_row_ = 0;
 };
+
+/// The headline figure shown next to a step's button ("fre_rms_mm 0.245 mm").
+QString stepHeadline(const nlohmann::json& figures);
 
 }  // namespace mrsns::gui
