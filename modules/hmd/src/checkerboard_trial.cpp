@@ -152,8 +152,9 @@ CheckerboardTrialResult runCheckerboardTrial(const CheckerboardTrialOptions& o) 
     p.linear() =
         tracker_T_board.linear() * so3Exp(Eigen::Vector3d(kPi + noise.uniform(-0.3, 0.3), noise.uniform(-0.3, 0.3), 0));
     p.translation() = corner_tracker - p.linear() * tip;
-    pointer_samples.push_back(trackerSample(p, noise, o));
-    board_samples.push_back(trackerSample(tracker_T_board, noise, o));
+    // The tip rests still on each corner (paper 000 §2.3): the poses are averaged like an image's.
+    pointer_samples.push_back(trackedStill(p, noise, o));
+    board_samples.push_back(trackedStill(tracker_T_board, noise, o));
   }
   const auto digitised = digitiseInBoard(pointer_samples, board_samples, tip_estimate);
   result.grid = fitCheckerboardGrid(digitised, o.board);

@@ -12,8 +12,9 @@
 //   0.35 mm 3D RMS position and 0.2 deg 3D RMS orientation, white; the HMD and
 //   board poses of an image are the mean of `tracker_samples_per_image`
 //   samples taken while the headset is held still (0.5 s at 60 Hz = 30);
-// - digitisation: the pointer tip placed within 0.25 mm 3D RMS of the corner,
-//   plus the tracker noise of one pointer sample;
+// - digitisation: the pointer tip placed within 0.25 mm 3D RMS of the corner;
+//   the tip rests still on each corner (paper 000 §2.3), so the pointer and
+//   board poses are averaged over the same number of samples;
 // - pointer pivot: 60 poses over +-25 deg;
 // - camera image: 0.7 px Gaussian blur, 2 grey levels noise (of 200
 //   contrast), 2x2 supersampled edges; HoloLens-like camera 1280x720,
