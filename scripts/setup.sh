@@ -38,37 +38,15 @@ phase_end
 [ "$run_demo" = 1 ] || exit 0
 
 phase_start "main job"
-# Until the phantom trial exists (workstation issue), the main job runs the
-# most complete chain available on the sample data, each step a CLI verb.
+# The whole phantom trial (workstation issue): every workflow step of paper
+# 001 on bundled data (simulated tracker, robot and HMD, the PLUS recording
+# for the ultrasound calibrations, the generated cervical phantom), with a
+# report folder: index.html beside the papers' figures, report.json, session.
 cli="$MRSNS_BUILD_DIR/app/cli/mrsns-cli"
-plus="$MRSNS_DATA_DIR/plus"
-out="$MRSNS_BUILD_DIR/demo"
+out="$MRSNS_BUILD_DIR/trial"
 rm -rf "$out"
-mkdir -p "$out"
-step() { echo; echo "---- mrsns-cli $*"; "$cli" "$@"; }
-
-# 1. Patient model: the bundled cervical phantom (needs no shared data).
-step make-phantom --output "$out/phantom"
-step segment "$out/phantom/phantom_ct.nrrd" --output "$out/segmentation"
-step find-fiducials --screws "$out/phantom/fiducial_screws.stl" --bone "$out/segmentation/bone.stl" --count 8 \
-  --output "$out/fiducials_found.mrk.json"
-step plan-check --paths "$out/phantom/screw_paths.mrk.json" --surface "$out/phantom/carotid_artery.stl"
-# 2. Soft-tissue deformation: the simulated carotid protocol of paper 001.
-step deform-trial --cases 2
-
-# 3. Real recordings (the shared data set): tracked ultrasound.
-recording="$plus/fCal_Test_Calibration_3NWires.igs.mha"
-if [ ! -f "$recording" ]; then
-  echo
-  echo "The PLUS sample recording was not found at $recording: skipping the ultrasound steps."
-  echo "Set MRSNS_DATA_DIR to the shared data folder (see README.md) to run them."
-else
-  step info "$recording"
-  step convert "$recording" "$out/fCal_Test_Calibration_3NWires.seq.nrrd"
-  step calibrate-us --config "$plus/PlusDeviceSet_fCal_Sim_SpatialCalibration_1.2.xml" \
-    --calibration "$recording" --validation "$plus/fCal_Test_Validation_3NWires.igs.mha" \
-    --reference-results "$plus/FreehandCalibration3NWires.results.xml"
-fi
+echo "---- mrsns-cli trial --out $out"
+MRSNS_DATA_DIR="$MRSNS_DATA_DIR" "$cli" trial --out "$out"
 echo
-echo "Main job done; outputs in $out"
+echo "Main job done; report in $out/index.html"
 phase_end
