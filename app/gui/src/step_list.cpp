@@ -90,7 +90,7 @@ QString stepHeadline(const nlohmann::json& figures) {
   std::string key;
   for (const char* needle : {"fre", "reprojection_3d_mean", "lag", "rms", "error", "offset"}) {
     if (const auto* leaf = findLeaf(figures, needle, 1, &key)) {
-      return QString::fromStdString(key) + QStringLiteral(" ") + formatFigure(key, *leaf);
+      return formatFigure(key, *leaf);  // the value only: the row is narrow
     }
   }
   return {};

@@ -49,7 +49,7 @@ class StepList : public QGroupBox {
   int next_row_ = 0;
 };
 
-/// The headline figure shown next to a step's button ("fre_rms_mm 0.245 mm").
+/// The headline figure shown next to a step's button ("0.245 mm": FRE, reprojection error, lag, RMS).
 QString stepHeadline(const nlohmann::json& figures);
 
 }  // namespace mrsns::gui
