@@ -52,6 +52,8 @@ void registerLatencyVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs)
 void registerSessionVerbs(CLI::App& app, GlobalOptions& options, VerbList& verbs);
 void registerTrialVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs);
 void registerHmdCheckerboardVerbs(CLI::App& app, GlobalOptions& options, VerbList& verbs);
+void registerRobotTrialVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs);
+void registerRobotCalibrateVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs);
 
 /// Adds the --json flag to a subcommand (every verb has it).
 void addJsonFlag(CLI::App& sub, GlobalOptions& options);

@@ -54,6 +54,8 @@ int main(int argc, char** argv) {
   registerSessionVerbs(app, options, verbs);
   registerTrialVerb(app, options, verbs);
   registerHmdCheckerboardVerbs(app, options, verbs);
+  registerRobotTrialVerb(app, options, verbs);
+  registerRobotCalibrateVerb(app, options, verbs);
 
   try {
     app.parse(argc, argv);
