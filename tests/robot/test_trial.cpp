@@ -12,6 +12,7 @@ TEST(PlacementTrial, TwoTrialsMeetTheGoalUnderTheNoiseModel) {
   PlacementTrialOptions o;
   o.trials = 2;
   o.seed = 3;
+  o.advance_speed_mm_s = 10.0;  // half the simulated time of the default 5 mm/s; same noise model
   const auto r = runPlacementTrial(o);
   ASSERT_EQ(r.placements.size(), 4u);
   EXPECT_EQ(r.completed, 4);
