@@ -8,6 +8,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <vector>
 
 #include "cli_runner.h"
 #include "test_data.h"
@@ -77,7 +78,7 @@ TEST(CliHmdCheckerboard, TrialWritesDatasetThatCalibrates) {
 
 TEST(CliHmdCheckerboard, BadInputGivesOneLineErrors) {
   const fs::path dir = scratchDirectory("checkerboard_bad");
-  ASSERT_EQ(runCli({"hmd-checkerboard-trial", "--poses", "3", "--intrinsics-images", "5", "--seed", "6",
+  ASSERT_EQ(runCli({"hmd-checkerboard-trial", "--poses", "3", "--intrinsics-images", "4", "--seed", "6",
                     "--write-dataset", (dir / "set").string(), "--json"})
                 .exit_code,
             0);
@@ -93,11 +94,12 @@ TEST(CliHmdCheckerboard, BadInputGivesOneLineErrors) {
   // Pose count differs from the image count.
   fs::copy(dir / "set", dir / "short", fs::copy_options::recursive);
   {
+    // All pose lines but the last (the file may start with a header line).
     std::ifstream in(dir / "set" / "hmd_poses.csv");
+    std::vector<std::string> lines;
+    for (std::string line; std::getline(in, line);) lines.push_back(line);
     std::ofstream out(dir / "short" / "hmd_poses.csv");
-    std::string line;
-    std::getline(in, line);
-    out << line << '\n';
+    for (size_t i = 0; i + 1 < lines.size(); ++i) out << lines[i] << '\n';
   }
   r = runCli({"hmd-calibrate-checkerboard", "--dataset", (dir / "short").string()});
   EXPECT_EQ(r.exit_code, 1);
