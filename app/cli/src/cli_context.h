@@ -54,6 +54,7 @@ void registerTrialVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs);
 void registerHmdCheckerboardVerbs(CLI::App& app, GlobalOptions& options, VerbList& verbs);
 void registerRobotTrialVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs);
 void registerRobotCalibrateVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs);
+void registerSnapshotVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs);
 
 /// Adds the --json flag to a subcommand (every verb has it).
 void addJsonFlag(CLI::App& sub, GlobalOptions& options);

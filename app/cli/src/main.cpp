@@ -56,6 +56,7 @@ int main(int argc, char** argv) {
   registerHmdCheckerboardVerbs(app, options, verbs);
   registerRobotTrialVerb(app, options, verbs);
   registerRobotCalibrateVerb(app, options, verbs);
+  registerSnapshotVerb(app, options, verbs);
 
   try {
     app.parse(argc, argv);
