@@ -148,11 +148,11 @@ TEST_F(MainWindowTest, SampleSessionRegistrationAndUsCalibrationThenSaveAndReope
   auto* output = window->outputPanel();
   ASSERT_TRUE(clickAndWait(*window, "step_registration")) << messages();
   EXPECT_NE(output->readout("fre"), QStringLiteral("—")) << "registration FRE not shown";
-  EXPECT_TRUE(window->findChild<QLabel*>("status_registration")->text().contains("done"));
+  EXPECT_TRUE(window->findChild<QLabel*>("status_registration")->property("stepState").toString() == "done");
 
   ASSERT_TRUE(clickAndWait(*window, "step_us-spatial-calibration")) << messages();
   EXPECT_NE(output->readout("us_calibration"), QStringLiteral("—")) << "US calibration error not shown";
-  EXPECT_TRUE(window->findChild<QLabel*>("status_us-spatial-calibration")->text().contains("done"));
+  EXPECT_TRUE(window->findChild<QLabel*>("status_us-spatial-calibration")->property("stepState").toString() == "done");
   EXPECT_TRUE(recorder_->messages.empty()) << messages();
   screenshot(*window, "main_window_after_registration_and_us_calibration.png");
 
@@ -170,7 +170,7 @@ TEST_F(MainWindowTest, SampleSessionRegistrationAndUsCalibrationThenSaveAndReope
   ASSERT_TRUE(state["steps"].contains("us-spatial-calibration"));
   EXPECT_EQ(reopened->outputPanel()->readout("fre"), fre);
   EXPECT_EQ(reopened->outputPanel()->readout("us_calibration"), us);
-  EXPECT_TRUE(reopened->findChild<QLabel*>("status_registration")->text().contains("done"));
+  EXPECT_TRUE(reopened->findChild<QLabel*>("status_registration")->property("stepState").toString() == "done");
 }
 
 TEST_F(MainWindowTest, ErrorsBecomeMessagesThatSayWhatToDo) {

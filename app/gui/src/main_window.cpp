@@ -101,7 +101,7 @@ MainWindow::MainWindow(MainWindowOptions options, QWidget* parent) : QMainWindow
   addDockWidget(Qt::LeftDockWidgetArea, preparation_dock_);
   addDockWidget(Qt::BottomDockWidgetArea, function_dock_);
   addDockWidget(Qt::RightDockWidgetArea, output_dock_);
-  resizeDocks({preparation_dock_, output_dock_}, {330, 370}, Qt::Horizontal);
+  resizeDocks({preparation_dock_, output_dock_}, {350, 370}, Qt::Horizontal);
 
   connect(preparation_, &PreparationPanel::runStepRequested, this, [this](const QString& s) { runStep(s); });
   connect(function_, &FunctionPanel::runStepRequested, this, [this](const QString& s) { runStep(s); });

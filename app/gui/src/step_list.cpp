@@ -52,7 +52,10 @@ void StepList::setStepState(const QString& name, StepState state, const QString&
     case StepState::Failed: text = tr("✗ failed"), property = QStringLiteral("failed"); break;
     case StepState::Cancelled: text = tr("cancelled"), property = QStringLiteral("failed"); break;
   }
-  if (!detail.isEmpty()) text += QStringLiteral("  ") + detail;
+  if (!detail.isEmpty()) {
+    // Narrow rows: a done step shows its figure instead of the word.
+    text = state == StepState::Done ? QStringLiteral("✓ ") + detail : text + QStringLiteral("  ") + detail;
+  }
   label->setText(text);
   label->setToolTip(detail);
   label->setProperty("stepState", property);
