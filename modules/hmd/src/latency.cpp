@@ -189,6 +189,16 @@ LatencyResult estimateLatency(std::span<const double> tracker_times, std::span<c
       best = lag;
     }
   }
+  // A periodic motion (steady walking) correlates as well at a half period with the opposite sign
+  // (PCA axes have no sign) as at the true lag: among peaks within 5 % of the best, take the
+  // smallest |lag|, since latencies are short compared with a step.
+  const double best_abs = std::abs(c[static_cast<std::size_t>(best + max_lag)]);
+  for (int lag = -max_lag + 1; lag < max_lag; ++lag) {
+    const double v = std::abs(c[static_cast<std::size_t>(lag + max_lag)]);
+    const bool peak = v >= std::abs(c[static_cast<std::size_t>(lag + max_lag - 1)]) &&
+                      v >= std::abs(c[static_cast<std::size_t>(lag + max_lag + 1)]);
+    if (peak && v >= 0.95 * best_abs && std::abs(lag) < std::abs(best)) best = lag;
+  }
   const double sign = c[static_cast<std::size_t>(best + max_lag)] < 0.0 ? -1.0 : 1.0;
   r.component_sign_flipped = sign < 0.0;
   r.xcorr_peak = sign * c[static_cast<std::size_t>(best + max_lag)];
