@@ -52,6 +52,7 @@ void registerLatencyVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs)
 void registerSessionVerbs(CLI::App& app, GlobalOptions& options, VerbList& verbs);
 void registerTrialVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs);
 void registerHmdCheckerboardVerbs(CLI::App& app, GlobalOptions& options, VerbList& verbs);
+void registerRobotSimVerbs(CLI::App& app, GlobalOptions& options, VerbList& verbs);
 void registerRobotTrialVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs);
 void registerRobotCalibrateVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs);
 void registerSnapshotVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs);

@@ -54,6 +54,7 @@ int main(int argc, char** argv) {
   registerSessionVerbs(app, options, verbs);
   registerTrialVerb(app, options, verbs);
   registerHmdCheckerboardVerbs(app, options, verbs);
+  registerRobotSimVerbs(app, options, verbs);
   registerRobotTrialVerb(app, options, verbs);
   registerRobotCalibrateVerb(app, options, verbs);
   registerSnapshotVerb(app, options, verbs);
