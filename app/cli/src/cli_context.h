@@ -45,6 +45,7 @@ void registerSegmentVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs)
 void registerMakePhantomVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs);
 void registerSsmVerbs(CLI::App& app, GlobalOptions& options, VerbList& verbs);
 void registerDeformTrialVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs);
+void registerDeformTrackVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs);
 void registerUltrasoundVerbs(CLI::App& app, GlobalOptions& options, VerbList& verbs);
 void registerHmdTrialVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs);
 void registerHmdCalibrateCubeVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs);

@@ -47,6 +47,7 @@ int main(int argc, char** argv) {
   registerMakePhantomVerb(app, options, verbs);
   registerSsmVerbs(app, options, verbs);
   registerDeformTrialVerb(app, options, verbs);
+  registerDeformTrackVerb(app, options, verbs);
   registerUltrasoundVerbs(app, options, verbs);
   registerHmdTrialVerb(app, options, verbs);
   registerHmdCalibrateCubeVerb(app, options, verbs);

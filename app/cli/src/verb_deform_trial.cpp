@@ -1,10 +1,17 @@
 // `mrsns-cli deform-trial`: the simulated phantom protocol of paper 001
 // §III.A (Table I): posterior shape from B-mode slices vs the undeformed prior.
+#include <filesystem>
+#include <fstream>
 #include <sstream>
 
 #include "cli_context.h"
 #include "mrsns/core/error.h"
 #include "mrsns/deformation/deformation_trial.h"
+#include "mrsns/deformation/simulated_sweep.h"
+#include "mrsns/io/mesh_io.h"
+#include "mrsns/io/sequence_file.h"
+#include "mrsns/io/statismo_io.h"
+#include "mrsns/io/transform_io.h"
 
 namespace mrsns::cli {
 namespace {
@@ -17,14 +24,15 @@ struct DeformTrialOptions {
   double tracking_noise_mm = 0.35;
   double noise_sigma_mm = 1.5;
   double stretch_mm = 2.0;
+  std::string write_case;
+  std::string correspondence = "arc-length";
 };
 
 Json summary(const deformation::Summary& s) {
   return Json{{"mean", s.mean}, {"sd", s.sd}, {"max", s.max}};
 }
 
-Report run(const DeformTrialOptions& o) {
-  if (o.cases < 1 || o.frames < 1) throw InvalidArgumentError("deform-trial: --cases and --frames must be >= 1");
+deformation::DeformationTrialOptions trialOptions(const DeformTrialOptions& o) {
   deformation::DeformationTrialOptions t;
   t.cases = o.cases;
   t.seed = o.seed;
@@ -33,12 +41,66 @@ Report run(const DeformTrialOptions& o) {
   t.tracking_noise_mm = o.tracking_noise_mm;
   t.noise_sigma_mm = o.noise_sigma_mm;
   t.stretch_mm = o.stretch_mm;
+  if (o.correspondence == "arc-length") {
+    t.tracker.correspondence = deformation::ContourCorrespondence::ArcLength;
+  } else if (o.correspondence == "closest-point") {
+    t.tracker.correspondence = deformation::ContourCorrespondence::ClosestPoint;
+  } else {
+    throw InvalidArgumentError("deform-trial: --correspondence must be arc-length or closest-point");
+  }
+  return t;
+}
+
+// One simulated case as files, the input of `deform-track`: model.h5 and
+// truth.vtp (Reference frame), sweep.igs.mha (8-bit B-mode, ProbeToTracker,
+// ReferenceToTracker), ImageToProbe.txt (with the calibration error and the
+// pixel scale) and contours.json (the ground truth's cut per frame: an ideal
+// external segmenter, image mm).
+Report writeCase(const DeformTrialOptions& o) {
+  const auto t = trialOptions(o);
+  const deformation::SimulatedSweep sweep = deformation::simulateSweep(t, o.seed);
+  const std::filesystem::path dir(o.write_case);
+  std::filesystem::create_directories(dir);
+  io::writeStatismoModel(sweep.model, dir / "model.h5");
+  io::writeMesh(sweep.truth, dir / "truth.vtp");
+  io::writeSequence(dir / "sweep.igs.mha", sweep.sequence);
+  io::writeTransformFile(sweep.image_to_probe, dir / "ImageToProbe.txt");
+  Json frames = Json::array();
+  for (std::size_t f = 0; f < sweep.true_contours.size(); ++f) {
+    Json contours = Json::array();
+    for (const auto& c : sweep.true_contours[f]) {
+      Json pts = Json::array();
+      for (const auto& p : c.points) pts.push_back({p.x(), p.y()});
+      contours.push_back(pts);
+    }
+    frames.push_back({{"frame", f}, {"contours", contours}});
+  }
+  std::ofstream(dir / "contours.json")
+      << Json{{"format", "mrsns-contours"}, {"version", 1}, {"units", "mm"}, {"frames", frames}}.dump();
+  Json fid = Json::array();
+  for (int v : sweep.fiducial_vertices) fid.push_back(v);
+  Report r;
+  r.json["verb"] = "deform-trial";
+  r.json["case_directory"] = dir.string();
+  r.json["files"] = {"model.h5", "truth.vtp", "sweep.igs.mha", "ImageToProbe.txt", "contours.json"};
+  r.json["frames"] = sweep.sequence.frames.size();
+  r.json["model_frame"] = "Reference";
+  r.json["fiducial_vertices"] = fid;
+  r.text = "wrote one simulated case to " + dir.string() + "\n";
+  return r;
+}
+
+Report run(const DeformTrialOptions& o) {
+  if (o.cases < 1 || o.frames < 1) throw InvalidArgumentError("deform-trial: --cases and --frames must be >= 1");
+  if (!o.write_case.empty()) return writeCase(o);
+  const auto t = trialOptions(o);
   const auto r = deformation::runDeformationTrial(t);
   Report rep;
   rep.json["verb"] = "deform-trial";
   rep.json["cases"] = o.cases;
   rep.json["seed"] = o.seed;
   rep.json["frames_per_case"] = o.frames;
+  rep.json["correspondence"] = o.correspondence;
   rep.json["model"] = {{"training_shapes", t.training_shapes}, {"modes", r.model_modes}, {"points", r.model_points}};
   rep.json["noise_model"] = {{"us_calibration_error_rms_mm", t.calibration_error_mm},
                              {"us_calibration_rotation_deg", t.calibration_rotation_deg},
@@ -109,6 +171,12 @@ void registerDeformTrialVerb(CLI::App& app, GlobalOptions& options, VerbList& ve
   sub->add_option("--tracking-noise", opts->tracking_noise_mm, "tracking noise, 3D RMS (mm)")->capture_default_str();
   sub->add_option("--sigma", opts->noise_sigma_mm, "posterior observation noise sigma (mm)")->capture_default_str();
   sub->add_option("--stretch", opts->stretch_mm, "shape stretch amplitude, RMS per axis (mm)")->capture_default_str();
+  sub->add_option("--correspondence", opts->correspondence,
+                  "feature-to-model contour pairing: arc-length (paper, Eq. 8 + cyclic shift) or closest-point")
+      ->capture_default_str();
+  sub->add_option("--write-case", opts->write_case,
+                  "write one simulated case (model, truth, tracked B-mode sweep, calibration, ideal contours) to "
+                  "this directory instead of running the trial");
   addJsonFlag(*sub, options);
   verbs.emplace_back(sub, [opts] { return run(*opts); });
 }

@@ -6,8 +6,10 @@
 
 #include "cli_context.h"
 #include "mrsns/core/error.h"
+#include "mrsns/deformation/correspondence.h"
 #include "mrsns/deformation/model_building.h"
 #include "mrsns/deformation/shape_model_ops.h"
+#include "mrsns/io/landmarks_io.h"
 #include "mrsns/io/mesh_io.h"
 #include "mrsns/io/statismo_io.h"
 
@@ -26,6 +28,10 @@ struct SsmOptions {
   std::uint64_t seed = 1;
   bool double_precision = false;
   bool quality = false;
+  std::string correspondence = "none";
+  std::string reference;
+  std::vector<std::string> landmarks;
+  std::string reference_landmarks;
 };
 
 Json arrayOf(const Eigen::VectorXd& v, Eigen::Index max_count = -1) {
@@ -34,10 +40,50 @@ Json arrayOf(const Eigen::VectorXd& v, Eigen::Index max_count = -1) {
   return a;
 }
 
+std::vector<Eigen::Vector3d> landmarkPoints(const std::string& path) {
+  std::vector<Eigen::Vector3d> v;
+  for (const auto& l : io::readLandmarks(path).points) v.push_back(l.position);
+  return v;
+}
+
+// --correspondence nonrigid: the reference fitted to every example (rigid +
+// non-rigid ICP), so meshes from different scans share its vertices.
+Json fitToExamples(const SsmOptions& o, std::vector<TriangleMesh>& meshes) {
+  if (o.reference.empty()) throw InvalidArgumentError("ssm build: --correspondence nonrigid needs --reference MESH");
+  if (!o.landmarks.empty() && (o.landmarks.size() != meshes.size() || o.reference_landmarks.empty())) {
+    throw InvalidArgumentError("ssm build: give one --landmarks file per mesh (" + std::to_string(meshes.size()) +
+                               ") and --reference-landmarks, or no landmarks");
+  }
+  const TriangleMesh reference = io::readMesh(o.reference);
+  std::vector<std::vector<Eigen::Vector3d>> lm;
+  for (const auto& f : o.landmarks) lm.push_back(landmarkPoints(f));
+  std::vector<Eigen::Vector3d> ref_lm;
+  if (!o.landmarks.empty()) ref_lm = landmarkPoints(o.reference_landmarks);
+  const auto fits = deformation::establishCorrespondence(reference, meshes, {}, lm, ref_lm);
+  Json out = Json::array();
+  for (std::size_t i = 0; i < fits.size(); ++i) {
+    Json f{
+        {"mesh", o.meshes[i]},
+        {"scale", fits[i].scale},
+        {"rigid_mean_distance_mm", fits[i].rigid_mean_distance_mm},
+        {"fitted_to_example_mm", {{"mean", fits[i].fitted_to_example.mean}, {"max", fits[i].fitted_to_example.max}}},
+        {"example_to_fitted_mm", {{"mean", fits[i].example_to_fitted.mean}, {"max", fits[i].example_to_fitted.max}}}};
+    if (!fits[i].landmark_error_mm.empty()) f["landmark_error_mm"] = fits[i].landmark_error_mm;
+    out.push_back(f);
+    meshes[i] = fits[i].fitted;
+  }
+  return out;
+}
+
 Report runBuild(const SsmOptions& o) {
   if (o.meshes.size() < 2) throw InvalidArgumentError("ssm build: give at least 2 meshes in correspondence");
+  if (o.correspondence != "none" && o.correspondence != "nonrigid") {
+    throw InvalidArgumentError("ssm build: --correspondence must be none or nonrigid");
+  }
   std::vector<TriangleMesh> meshes;
   for (const auto& m : o.meshes) meshes.push_back(io::readMesh(m));
+  Json fits;
+  if (o.correspondence == "nonrigid") fits = fitToExamples(o, meshes);
   deformation::ShapeModelBuildOptions build;
   build.align = !o.no_align;
   build.procrustes.estimate_scale = o.scale;
@@ -58,6 +104,8 @@ Report runBuild(const SsmOptions& o) {
   r.json["total_variance_mm2"] = result.total_variance;
   r.json["retained_variance_fraction"] = result.retained_variance_fraction;
   r.json["variances_mm2"] = arrayOf(result.model.variances);
+  r.json["correspondence"] = o.correspondence;
+  if (!fits.is_null()) r.json["fits"] = fits;
   if (o.quality && meshes.size() >= 3) {
     const auto g = deformation::generalization(result.model.reference, result.aligned_shapes, build);
     std::mt19937_64 rng(o.seed);
@@ -154,13 +202,25 @@ void registerSsmVerbs(CLI::App& app, GlobalOptions& options, VerbList& verbs) {
   ssm->require_subcommand(1);
 
   auto* build = ssm->add_subcommand("build", "PCA shape model from meshes in correspondence (GPA + SVD)");
-  build->add_option("MESHES", opts->meshes, "example meshes, same vertex count and order")->required();
+  build
+      ->add_option("MESHES", opts->meshes,
+                   "example meshes (same vertex count and order, or any with --correspondence nonrigid)")
+      ->required();
   build->add_option("-o,--output", opts->output, "model file (.h5, statismo format)")->required();
   build->add_flag("--no-align", opts->no_align, "the examples are already aligned (skip Procrustes)");
   build->add_flag("--scale", opts->scale, "remove scale in the Procrustes alignment");
   build->add_option("--noise-variance", opts->noise_variance, "PPCA noise variance (mm^2)");
   build->add_option("--max-modes", opts->max_modes, "keep at most this many modes");
   build->add_flag("--double", opts->double_precision, "write float64 datasets (statismo writes float32)");
+  build
+      ->add_option("--correspondence", opts->correspondence,
+                   "none (meshes already in correspondence) or nonrigid "
+                   "(fit --reference to every mesh: rigid + non-rigid ICP)")
+      ->capture_default_str();
+  build->add_option("--reference", opts->reference,
+                    "reference mesh for --correspondence nonrigid (its topology is kept)");
+  build->add_option("--landmarks", opts->landmarks, "one landmark file per mesh (start of the rigid stage)");
+  build->add_option("--reference-landmarks", opts->reference_landmarks, "the reference's landmarks, same order");
   build->add_flag("--quality", opts->quality, "also report compactness, generalisation (leave-one-out), specificity");
   addJsonFlag(*build, options);
   verbs.emplace_back(build, [opts] { return runBuild(*opts); });
