@@ -81,6 +81,41 @@ TEST(CliHmdCalibrateCube, RecoversHologramToTracker) {
   EXPECT_NEAR(m[0], T(0, 0), 1e-3);
 }
 
+// The marker-frame form: cube vertices in the cube-marker frame with each sample's CubeToTracker.
+TEST(CliHmdCalibrateCube, MarkerFrameColumns) {
+  const auto dir = scratchDirectory("cli_hmd_cube_marker");
+  Eigen::Isometry3d tracker_T_hologram = Eigen::Isometry3d::Identity();
+  tracker_T_hologram.linear() = Eigen::AngleAxisd(-0.4, Eigen::Vector3d(0, 1, 1).normalized()).toRotationMatrix();
+  tracker_T_hologram.translation() = Eigen::Vector3d(-20, 300, 1200);
+  // The cube (marker frame = cube centre) sits on its hologram at (0, 0, 500), rotated by 0.3 rad.
+  Eigen::Isometry3d hologram_T_cube = Eigen::Isometry3d::Identity();
+  hologram_T_cube.linear() = Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  hologram_T_cube.translation() = Eigen::Vector3d(0, 0, 500);
+  const Eigen::Isometry3d tracker_T_cube = tracker_T_hologram * hologram_T_cube;
+  const auto path = dir / "marker.csv";
+  std::ofstream out(path);
+  out << "view,fiducial,x_marker,y_marker,z_marker,m00,m01,m02,m03,m10,m11,m12,m13,m20,m21,m22,m23,"
+         "x_hologram,y_hologram,z_hologram\n";
+  out.precision(12);
+  for (int i = 0; i < 8; ++i) {
+    const Eigen::Vector3d v(i & 1 ? 30 : -30, i & 2 ? 30 : -30, i & 4 ? 30 : -30);
+    const Eigen::Vector3d h = hologram_T_cube * v;
+    out << "front," << i << "," << v.x() << "," << v.y() << "," << v.z();
+    for (int r = 0; r < 3; ++r) {
+      for (int c = 0; c < 4; ++c) out << "," << tracker_T_cube(r, c);
+    }
+    out << "," << h.x() << "," << h.y() << "," << h.z() << "\n";
+  }
+  out.close();
+  const auto r = runCli({"hmd-calibrate-cube", "--points", path.string(), "--json"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_LT(j["views"][0]["rigid"]["rms_mm"].get<double>(), 1e-6);
+  EXPECT_EQ(j["views"][0]["tremor_compensated_fiducials"], 0);  // one sample each: used as is
+  const auto m = j["HologramToTracker"].get<std::vector<double>>();
+  for (int k = 0; k < 12; ++k) EXPECT_NEAR(m[k], tracker_T_hologram(k / 4, k % 4), 1e-6) << k;
+}
+
 TEST(CliHmdCalibrateCube, BadFilesExitOneWithOneLine) {
   const auto dir = scratchDirectory("cli_hmd_cube_bad");
   const auto missing = runCli({"hmd-calibrate-cube", "--points", (dir / "nope.csv").string(), "--json"});

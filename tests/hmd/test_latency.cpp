@@ -84,6 +84,28 @@ TEST(Latency, NegativeAndZeroLatencyAndSignOfTheComponent) {
   EXPECT_NEAR(r.event_mean_s, 0.040, 0.5 / 60.0);
 }
 
+// A perfectly periodic bob correlates equally at the true lag and, sign-flipped, half a step
+// period (278 ms) away: the short lag must win.
+TEST(Latency, SteadyPeriodicMotionIsNotAmbiguous) {
+  std::vector<double> tt, th;
+  std::vector<Eigen::Vector3d> pt, ph;
+  auto head = [](double t) {
+    return Eigen::Vector3d(1500.0 * std::sin(2 * kPi * 0.05 * t), 30.0 * std::sin(kPi * 1.8 * t),
+                           20.0 * std::sin(2 * kPi * 1.8 * t));
+  };
+  for (int k = 0; k < 120 * 20; ++k) {
+    tt.push_back(k / 120.0);
+    pt.push_back(head(tt.back()));
+  }
+  for (int k = 0; k < 60 * 20; ++k) {
+    th.push_back(0.2 + k / 60.0);
+    ph.push_back(-head(th.back() - 0.040));  // mirrored frame: the PCA sign flips
+  }
+  const auto r = estimateLatency(tt, pt, th, ph);
+  EXPECT_NEAR(r.xcorr_latency_s, 0.040, 0.5 / 60.0);
+  EXPECT_NEAR(r.event_mean_s, 0.040, 0.5 / 60.0);
+}
+
 TEST(Latency, RefusesBadSeries) {
   const auto rec = record(0.04, 10.0, 2);
   std::vector<double> few(rec.tt.begin(), rec.tt.begin() + 10);
