@@ -14,6 +14,20 @@
 
 namespace mrsns::rendering::detail {
 
+vtkRenderWindow* sharedOffscreenWindow() {
+  // One offscreen window for the whole process: creating and destroying X
+  // windows repeatedly makes VTK 9.1 on Xvfb/Mesa abort after a handful
+  // ("bad X server connection"), and reusing the context is faster anyway.
+  static vtkSmartPointer<vtkRenderWindow> window;
+  if (!window) {
+    window = vtkSmartPointer<vtkRenderWindow>::New();
+    window->SetOffScreenRendering(1);
+    // Multisampling costs ~2x per frame on llvmpipe for little visible gain.
+    window->SetMultiSamples(0);
+  }
+  return window;
+}
+
 void checkOffscreen(int width, int height) {
   if (width < 16 || height < 16 || width > 8192 || height > 8192) {
     throw InvalidArgumentError("snapshot size " + std::to_string(width) + "x" + std::to_string(height) +
@@ -57,16 +71,7 @@ void renderToPng(const std::vector<ViewportRenderer>& renderers, const std::file
       throw FileError("cannot write snapshot '" + png.string() + "': check the folder exists and is writable");
   }
 
-  // One offscreen window for every snapshot of the process: creating and
-  // destroying X windows per snapshot makes Xvfb refuse connections after a
-  // handful (VTK 9.1 on Mesa), and reusing the context is faster anyway.
-  static vtkSmartPointer<vtkRenderWindow> shared_window;
-  if (!shared_window) {
-    shared_window = vtkSmartPointer<vtkRenderWindow>::New();
-    shared_window->SetOffScreenRendering(1);
-    shared_window->SetMultiSamples(0);
-  }
-  vtkRenderWindow* window = shared_window;
+  vtkRenderWindow* window = sharedOffscreenWindow();
   window->SetSize(width, height);
   struct Borrowed {
     vtkRenderer* renderer;

@@ -18,6 +18,10 @@ struct ViewportRenderer {
 /// A renderer already shown in a window (the GUI's) is borrowed and given
 /// back afterwards. Throws InvalidArgumentError for a size outside
 /// [16, 8192], UnsupportedError without a display, FileError when writing fails.
+/// The process's one offscreen render window (created on first use). Use
+/// it from one thread, one client at a time.
+vtkRenderWindow* sharedOffscreenWindow();
+
 /// Throws InvalidArgumentError for a size outside [16, 8192] and
 /// UnsupportedError without an X display.
 void checkOffscreen(int width, int height);

@@ -12,7 +12,7 @@
 namespace mrsns::rendering {
 
 struct OffscreenView::Impl {
-  vtkSmartPointer<vtkRenderWindow> window = vtkSmartPointer<vtkRenderWindow>::New();
+  vtkRenderWindow* window = nullptr;
   vtkRenderer* renderer = nullptr;
   vtkRenderWindow* owner = nullptr;
 };
@@ -22,9 +22,7 @@ OffscreenView::OffscreenView(Scene& scene, int width, int height) : impl_(std::m
   impl_->renderer = scene.renderer();
   impl_->owner = impl_->renderer->GetRenderWindow();
   if (impl_->owner) impl_->owner->RemoveRenderer(impl_->renderer);
-  impl_->window->SetOffScreenRendering(1);
-  // Multisampling costs ~2x per frame on llvmpipe for little visible gain.
-  impl_->window->SetMultiSamples(0);
+  impl_->window = detail::sharedOffscreenWindow();
   impl_->window->SetSize(width, height);
   impl_->window->AddRenderer(impl_->renderer);
 }
@@ -32,7 +30,6 @@ OffscreenView::OffscreenView(Scene& scene, int width, int height) : impl_(std::m
 OffscreenView::~OffscreenView() {
   impl_->window->RemoveRenderer(impl_->renderer);
   if (impl_->owner) impl_->owner->AddRenderer(impl_->renderer);
-  impl_->window->Finalize();
 }
 
 double OffscreenView::render() {

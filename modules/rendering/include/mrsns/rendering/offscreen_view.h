@@ -12,7 +12,9 @@ class Scene;
 class OffscreenView {
  public:
   /// Borrows scene.renderer() until destruction (the scene must outlive the
-  /// view). Throws like snapshotPng for a bad size or a missing display.
+  /// view). Views and snapshots share the process's one offscreen window:
+  /// keep one view at a time and take no snapshot while it exists. Throws
+  /// like snapshotPng for a bad size or a missing display.
   OffscreenView(Scene& scene, int width, int height);
   ~OffscreenView();
   OffscreenView(const OffscreenView&) = delete;
