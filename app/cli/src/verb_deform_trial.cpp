@@ -26,6 +26,7 @@ struct DeformTrialOptions {
   double stretch_mm = 2.0;
   std::string write_case;
   std::string correspondence = "arc-length";
+  std::string overlap = "split";
 };
 
 Json summary(const deformation::Summary& s) {
@@ -48,6 +49,10 @@ deformation::DeformationTrialOptions trialOptions(const DeformTrialOptions& o) {
   } else {
     throw InvalidArgumentError("deform-trial: --correspondence must be arc-length or closest-point");
   }
+  if (o.overlap != "split" && o.overlap != "refuse") {
+    throw InvalidArgumentError("deform-trial: --overlap must be split or refuse");
+  }
+  t.segmentation.split_overlapping = o.overlap == "split";
   return t;
 }
 
@@ -137,6 +142,7 @@ Report run(const DeformTrialOptions& o) {
                         {"frames_updated", c.frames_updated},
                         {"contours_segmented", c.contours_segmented},
                         {"contours_refused", c.contours_refused},
+                        {"contours_split", c.contours_split},
                         {"observations", c.observations},
                         {"excluded", c.excluded},
                         {"mahalanobis", c.posterior_mahalanobis}});
@@ -171,6 +177,10 @@ void registerDeformTrialVerb(CLI::App& app, GlobalOptions& options, VerbList& ve
   sub->add_option("--tracking-noise", opts->tracking_noise_mm, "tracking noise, 3D RMS (mm)")->capture_default_str();
   sub->add_option("--sigma", opts->noise_sigma_mm, "posterior observation noise sigma (mm)")->capture_default_str();
   sub->add_option("--stretch", opts->stretch_mm, "shape stretch amplitude, RMS per axis (mm)")->capture_default_str();
+  sub->add_option("--overlap", opts->overlap,
+                  "overlapping branch loops near the bifurcation: split (segment each lumen without the shared "
+                  "side) or refuse (as ambiguous)")
+      ->capture_default_str();
   sub->add_option("--correspondence", opts->correspondence,
                   "feature-to-model contour pairing: arc-length (paper, Eq. 8 + cyclic shift) or closest-point")
       ->capture_default_str();

@@ -226,17 +226,47 @@ std::vector<LumenContour> segmentLumens(const BModeImage& image, std::span<const
       res.status = "empty seed";
       continue;
     }
+    const double r0 = radii[s];
+    // Near a bifurcation the model's cut is two (or three) overlapping loops
+    // and the image shows their union: the part of this seed's wall that lies
+    // inside another seed's disc is not seen. Rays towards it are left out.
+    std::vector<char> blocked(static_cast<std::size_t>(o.rays), 0);
+    int open_rays = o.rays;
     bool overlaps = false;
     for (std::size_t t = 0; t < seeds.size(); ++t) {
-      if (t != s && (centres[t] - centres[s]).norm() < radii[t] + radii[s]) overlaps = true;
+      if (t != s && radii[t] > 0.0 && (centres[t] - centres[s]).norm() < radii[t] + radii[s]) overlaps = true;
     }
     if (overlaps) {
-      res.status = "ambiguous: seed overlaps another vessel";
-      continue;
+      if (!o.split_overlapping) {
+        res.status = "ambiguous: seed overlaps another vessel";
+        continue;
+      }
+      constexpr double kMarginMm = 0.3;  // about the wall's smoothed edge
+      for (int k = 0; k < o.rays; ++k) {
+        const double a = 2.0 * std::numbers::pi * k / o.rays;
+        const Eigen::Vector2d wall = centres[s] + r0 * Eigen::Vector2d(std::cos(a), std::sin(a));
+        for (std::size_t t = 0; t < seeds.size(); ++t) {
+          if (t != s && radii[t] > 0.0 && (wall - centres[t]).norm() < radii[t] + kMarginMm) {
+            blocked[static_cast<std::size_t>(k)] = 1;
+          }
+        }
+        open_rays -= blocked[static_cast<std::size_t>(k)];
+      }
+      if (open_rays < o.min_ray_fraction * o.rays) {
+        res.status = "ambiguous: seed mostly inside another vessel";
+        continue;
+      }
+      res.split = true;
     }
-    const double r0 = radii[s];
+    auto rayBlocked = [&](double angle) {
+      if (!overlaps) return false;
+      const double turns = angle / (2.0 * std::numbers::pi);
+      const auto k = static_cast<std::size_t>(std::lround((turns - std::floor(turns)) * o.rays)) % blocked.size();
+      return blocked[k] != 0;
+    };
     // The model's contour may be off by a few mm before the first updates:
-    // move the seed to the darkest disc within the capture range.
+    // move the seed to the darkest disc within the capture range. Not for
+    // overlapping seeds: the darkest disc there is the merged lumen's middle.
     auto discMean = [&](const Eigen::Vector2d& q) {
       double sum = 0.0;
       int n = 0;
@@ -252,9 +282,10 @@ std::vector<LumenContour> segmentLumens(const BModeImage& image, std::span<const
     Eigen::Vector2d c = centres[s];
     double darkest = discMean(c);
     const double step = std::max(0.25, 0.2 * r0);
-    for (double dx = -o.capture_range_mm; dx <= o.capture_range_mm; dx += step) {
-      for (double dy = -o.capture_range_mm; dy <= o.capture_range_mm; dy += step) {
-        if (dx * dx + dy * dy > o.capture_range_mm * o.capture_range_mm) continue;
+    const double capture = overlaps ? 0.0 : o.capture_range_mm;
+    for (double dx = -capture; dx <= capture; dx += step) {
+      for (double dy = -capture; dy <= capture; dy += step) {
+        if (dx * dx + dy * dy > capture * capture) continue;
         const Eigen::Vector2d q = centres[s] + Eigen::Vector2d(dx, dy);
         const double v = discMean(q);
         if (v < darkest) {
@@ -270,6 +301,7 @@ std::vector<LumenContour> segmentLumens(const BModeImage& image, std::span<const
       const Eigen::Vector2d dir(std::cos(a), std::sin(a));
       for (double f : {0.1, 0.25, 0.4})
         inner.push_back(image.sample(c.x() + f * r0 * dir.x(), c.y() + f * r0 * dir.y()));
+      if (rayBlocked(a)) continue;
       for (double f : {1.8, 2.1, 2.4})
         outer.push_back(image.sample(c.x() + f * r0 * dir.x(), c.y() + f * r0 * dir.y()));
     }
@@ -282,6 +314,7 @@ std::vector<LumenContour> segmentLumens(const BModeImage& image, std::span<const
     const double threshold = 0.5 * (lo + hi);
     std::vector<Eigen::Vector2d> edge;
     for (int k = 0; k < o.rays; ++k) {
+      if (blocked[static_cast<std::size_t>(k)]) continue;
       const double a = 2.0 * std::numbers::pi * k / o.rays;
       const Eigen::Vector2d dir(std::cos(a), std::sin(a));
       double prev = -1.0;

@@ -120,6 +120,7 @@ DeformationTrialResult runDeformationTrial(const DeformationTrialOptions& o) {
         if (l.ok) {
           features.push_back(l.contour);
           ++tc.contours_segmented;
+          if (l.split) ++tc.contours_split;
         } else {
           ++tc.contours_refused;
           logger()->debug("deform-trial case {} frame {}: lumen refused: {}", case_index, f, l.status);

@@ -62,6 +62,14 @@ struct LumenSegmentationOptions {
   double capture_range_mm = 4.0;
   /// Refuse a result whose centre moved more than this fraction of the seed radius.
   double max_center_shift = 1.2;
+  /// Seeds whose discs overlap (two branch loops of the model's cut near a
+  /// bifurcation) are segmented each from its own centre, with the rays that
+  /// point into the other seed's disc left out (there the two lumens merge and
+  /// no wall is seen); false refuses them as ambiguous.
+  bool split_overlapping = true;
+  /// Fewest rays (fraction of `rays`) left after the cones towards the other
+  /// seeds are removed: a shorter arc does not constrain an ellipse.
+  double min_ray_fraction = 0.55;
 };
 
 struct LumenContour {
@@ -73,6 +81,8 @@ struct LumenContour {
   double semi_minor_mm = 0.0;
   double fit_rms_mm = 0.0;  ///< Radial RMS of the inlier edge points to the ellipse.
   int inliers = 0;
+  /// Segmented from an overlapping seed with the shared side left out.
+  bool split = false;
 };
 
 /// For each seed contour (image coordinates, e.g. the model's predicted
@@ -80,7 +90,9 @@ struct LumenContour {
 /// the seed's size within the capture range), casts rays from it to
 /// the first rise above the lumen/tissue midpoint, and fits an ellipse
 /// (Halir-Flusser direct least squares) with one round of outlier rejection.
-/// Seeds whose discs overlap another seed are reported as not ok (ambiguous).
+/// Seeds whose discs overlap another seed are segmented from their own
+/// centre without the rays towards the other seed (`split_overlapping`), or
+/// reported as not ok (ambiguous) when that leaves too short an arc.
 [[nodiscard]] std::vector<LumenContour> segmentLumens(const BModeImage& image, std::span<const Polyline3d> seeds,
                                                       const LumenSegmentationOptions& options = {});
 

@@ -52,6 +52,7 @@ struct TrialCase {
   int frames_updated = 0;
   int contours_segmented = 0;
   int contours_refused = 0;
+  int contours_split = 0;  ///< Segmented from overlapping branch loops (of contours_segmented)
   int observations = 0;
   int excluded = 0;
   double posterior_mahalanobis = 0.0;
