@@ -47,6 +47,26 @@ namespace fs = std::filesystem;
 // Real steps on the bundled data take seconds on a loaded 2-core machine.
 constexpr int kStepTimeoutMs = 180000;
 
+/// Pixels of the 3D view shaded like bone: the vertebra colour (0.93, 0.89,
+/// 0.80) under any light keeps its hue (green ~0.96 and blue ~0.86 of red;
+/// seen through the 25 % tissue ~0.86 and ~0.78), unlike the grey background,
+/// the red vessel, the pink tissue alone and the blue screw paths.
+int countBonePixels(MainWindow& window) {
+  window.displayArea()->render();
+  const QImage image = window.findChild<QWidget*>("view3d")->grab().toImage();
+  int count = 0;
+  for (int y = 0; y < image.height(); ++y) {
+    for (int x = 0; x < image.width(); ++x) {
+      const QColor c = image.pixelColor(x, y);
+      if (c.red() < 60) continue;
+      const double g = static_cast<double>(c.green()) / c.red();
+      const double b = static_cast<double>(c.blue()) / c.red();
+      if (g > 0.82 && g < 0.99 && b > 0.72 && b < 0.92 && c.red() - c.blue() >= 12) ++count;
+    }
+  }
+  return count;
+}
+
 class MainWindowTest : public ::testing::Test {
  protected:
   void SetUp() override {
@@ -149,6 +169,30 @@ TEST_F(MainWindowTest, SampleSessionRegistrationAndUsCalibrationThenSaveAndReope
   ASSERT_TRUE(clickAndWait(*window, "step_registration")) << messages();
   EXPECT_NE(output->readout("fre"), QStringLiteral("—")) << "registration FRE not shown";
   EXPECT_TRUE(window->findChild<QLabel*>("status_registration")->property("stepState").toString() == "done");
+  // Registration writes the phantom's models: the surgeon now sees C3-C7,
+  // the vessel and the soft tissue around the planned screw paths.
+  const auto& scene = window->displayArea()->scene();
+  for (const char* name : {"vertebra:C3", "vertebra:C4", "vertebra:C5", "vertebra:C6", "vertebra:C7", "tissue:vessel",
+                           "tissue:soft_tissue", "path:C5 left"}) {
+    EXPECT_TRUE(scene.contains(name)) << name << " missing from the scene";
+  }
+  const bool gl = window->displayArea()->hasOpenGlViews();
+  const int bone_pixels = countBonePixels(*window);
+  // The camera frames the neck: C3-C7 cover a good part of the view, not a speck.
+  if (gl) {
+    EXPECT_GT(bone_pixels, 2000) << "vertebrae not visible in the 3D view";
+  }
+  screenshot(*window, "main_window_after_registration_models.png");
+  // The layer boxes still work on the new objects: unchecking Vertebrae hides
+  // every bone pixel but keeps the objects.
+  auto* vertebrae = window->findChild<QCheckBox*>("layerVertebrae");
+  ASSERT_NE(vertebrae, nullptr);
+  vertebrae->setChecked(false);
+  if (gl) {
+    EXPECT_LT(countBonePixels(*window), bone_pixels / 20) << "Vertebrae layer box did not hide the bone";
+  }
+  EXPECT_TRUE(scene.contains("vertebra:C5"));
+  vertebrae->setChecked(true);
 
   ASSERT_TRUE(clickAndWait(*window, "step_us-spatial-calibration")) << messages();
   EXPECT_NE(output->readout("us_calibration"), QStringLiteral("—")) << "US calibration error not shown";

@@ -4,8 +4,11 @@
 
 #include <atomic>
 #include <mutex>
+#include <set>
 
 #include "mrsns/core/error.h"
+#include "mrsns/core/mesh_locator.h"
+#include "mrsns/io/mesh_io.h"
 #include "mrsns/io/sequence_file.h"
 #include "mrsns/workflow/steps.h"
 #include "test_data.h"
@@ -71,6 +74,24 @@ TEST(Steps, EverySimulatedStepRunsWithProgressAndRecordsFigures) {
   const auto reg = session.step("registration")["figures"];
   EXPECT_NEAR(reg["landmarks"]["fre_rms_mm"].get<double>(), 0.43, 0.3);
   EXPECT_LT(reg["surface"]["tre"]["max"].get<double>(), 1.5);
+  // The phantom's models are in the session, in CT mm like figures.paths: each
+  // planned entry lies on the lateral mass, so on its vertebra's surface up to
+  // the meshing error (half a 1.5 mm voxel plus smoothing/decimation, < 2 mm).
+  const auto outputs = session.step("registration")["outputs"];
+  std::set<std::string> files(outputs.begin(), outputs.end());
+  for (const char* model : {"C3", "C4", "C5", "C6", "C7", "vessel", "soft_tissue"}) {
+    const std::string file = std::string("registration/models/") + model + ".vtp";
+    EXPECT_TRUE(files.count(file)) << file;
+  }
+  EXPECT_EQ(reg["models"].size(), 7u);
+  for (const auto& path : reg["paths"]) {
+    const std::string name = path["name"];
+    const std::string level = name.substr(0, 2);  // "C5 left" -> C5
+    const MeshLocator bone(io::readMesh(session.resolve("registration/models/" + level + ".vtp")));
+    const auto& e = path["entry_ct"];
+    const Eigen::Vector3d entry(e[0].get<double>(), e[1].get<double>(), e[2].get<double>());
+    EXPECT_LT(bone.closestPoint(entry).distance, 2.0) << name;
+  }
   EXPECT_LT(session.step("robot-calibration")["figures"]["tre_at_patient_mm"].get<double>(), 1.5);
   EXPECT_LT(session.step("hmd-calibration")["figures"]["tre_at_patient_mm"].get<double>(), 3.0);
   const auto placement = session.step("robot-placement")["figures"];

@@ -52,6 +52,13 @@ bool isSoftTissue(const std::string& lower_name) {
   return false;
 }
 
+bool isVessel(const std::string& lower_name) {
+  for (const char* word : {"vessel", "artery", "carotid", "vein"}) {
+    if (lower_name.find(word) != std::string::npos) return true;
+  }
+  return false;
+}
+
 /// Every string in the state (recursively), in document order without repeats.
 void collectStrings(const nlohmann::json& j, std::vector<std::string>& out, std::set<std::string>& seen) {
   if (j.is_string()) {
@@ -202,8 +209,13 @@ std::map<std::string, TriangleMesh> loadSessionScene(const workflow::Session& se
         TriangleMesh mesh = io::readMesh(file);
         const bool tissue = isSoftTissue(lower);
         const std::string name = (tissue ? "tissue:" : "vertebra:") + file.stem().string();
-        scene.setMesh(name, mesh, tissue ? Eigen::Vector3d(0.85, 0.45, 0.42) : Eigen::Vector3d(0.93, 0.89, 0.80),
-                      tissue ? 0.45 : 1.0);
+        // Vessels belong to the soft-tissue layer but are opaque red: they are
+        // what the drill must avoid, so they must not fade into the tissue.
+        const bool vessel = isVessel(lower);
+        const Eigen::Vector3d color = vessel   ? Eigen::Vector3d(0.80, 0.10, 0.10)
+                                      : tissue ? Eigen::Vector3d(0.85, 0.45, 0.42)
+                                               : Eigen::Vector3d(0.93, 0.89, 0.80);
+        scene.setMesh(name, mesh, color, vessel ? 1.0 : (tissue ? 0.25 : 1.0));
         meshes[name] = std::move(mesh);
       } else if (!have_volume && isVolumeFile(file) && lower.find("label") == std::string::npos) {
         slices.setVolume(io::readImage(file));

@@ -1,8 +1,10 @@
 // Patient registration on the generated cervical phantom: stylus landmarks
 // on the fiducial screws (paired points), then points digitised on the
 // posterior bone surface (ICP), against a simulated patient pose.
+#include <filesystem>
 #include <sstream>
 
+#include "mrsns/io/mesh_io.h"
 #include "mrsns/registration/label_meshing.h"
 #include "mrsns/registration/paired_point.h"
 #include "mrsns/registration/phantom_cervical.h"
@@ -11,6 +13,52 @@
 #include "step_internal.h"
 
 namespace mrsns::workflow::detail {
+
+namespace {
+
+/// The neck outline (everything denser than air) as a one-label map, so the
+/// soft tissue can be meshed with the same code as the bone.
+ImageVolume softTissueMask(const ImageVolume& ct) {
+  ImageVolume mask = ct;
+  mask.pixel_type = PixelType::UInt8;
+  mask.data.assign(ct.voxelCount(), std::byte{0});
+  // Halfway between air and soft tissue: the partial-volume boundary.
+  const double threshold = 0.5 * (registration::PhantomDensities::air + registration::PhantomDensities::soft_tissue);
+  for (std::size_t i = 0; i < ct.voxelCount(); ++i) {
+    if (ct.valueAtIndex(i) > threshold) mask.data[i] = std::byte{1};
+  }
+  return mask;
+}
+
+/// Writes the phantom's models in CT mm (the frame of figures.paths, which
+/// is where the GUI draws the planned screws), so the session shows them;
+/// figures.transforms.CTToPatient places them in the patient frame.
+Json writePhantomModels(Session& session, const registration::CervicalPhantom& phantom,
+                        const registration::LabelMeshingResult& bone_meshes, std::vector<std::string>& outputs) {
+  std::filesystem::create_directories(session.resolve("registration/models"));
+  Json models = Json::array();
+  const auto write = [&](TriangleMesh mesh, const std::string& file, const std::string& layer) {
+    mesh.frame = "CT";
+    io::writeMesh(mesh, session.resolve(file));
+    outputs.push_back(file);
+    models.push_back({{"file", file}, {"layer", layer}, {"frame", "CT"}, {"triangles", mesh.faceCount()}});
+  };
+  for (const auto& m : bone_meshes.meshes) {
+    write(m.mesh, "registration/models/" + m.name + ".vtp", "vertebrae");
+  }
+  registration::LabelMeshOptions vessel_options;
+  vessel_options.labels = {registration::kPhantomVesselLabel};
+  vessel_options.target_triangles = 2000;
+  write(registration::meshLabelMap(phantom.labels, vessel_options).meshes.at(0).mesh, "registration/models/vessel.vtp",
+        "soft-tissue");
+  registration::LabelMeshOptions tissue_options;
+  tissue_options.target_triangles = 3000;
+  write(registration::meshLabelMap(softTissueMask(phantom.ct), tissue_options).meshes.at(0).mesh,
+        "registration/models/soft_tissue.vtp", "soft-tissue");
+  return models;
+}
+
+}  // namespace
 
 StepResult runRegistration(Session& session, const Json& params, const StepContext& context) {
   const Params p("registration", params,
@@ -100,7 +148,11 @@ StepResult runRegistration(Session& session, const Json& params, const StepConte
                      {"entry_ct", {path.entry.x(), path.entry.y(), path.entry.z()}},
                      {"target_ct", {path.target.x(), path.target.y(), path.target.z()}}});
   }
+  context.report(0.9, "writing the phantom models");
+  std::vector<std::string> outputs;
+  const Json models = writePhantomModels(session, phantom, meshes, outputs);
   StepResult result;
+  result.outputs = outputs;
   result.ok = icp.converged || icp.rms_mm < 3.0 * surface_noise + 0.5;
   result.figures = {{"landmarks",
                      {{"count", landmarks_ct.size()},
@@ -116,6 +168,7 @@ StepResult runRegistration(Session& session, const Json& params, const StepConte
                       {"tre", statsJson(tre_icp)}}},
                     {"targets", targets},
                     {"paths", paths},
+                    {"models", models},
                     {"noise_model", {{"landmark_fle_rms_mm", fle}, {"surface_noise_rms_mm", surface_noise}}},
                     {"transforms", {{"CTToPatient", matrixJson(icp_patient_T_ct.matrix())}}},
                     {"simulation_truth", {{"CTToPatient", matrixJson(patient_T_ct.matrix())}}}};
@@ -124,7 +177,6 @@ StepResult runRegistration(Session& session, const Json& params, const StepConte
   s << "landmarks FRE " << pp.fre_rms_mm << " mm, surface RMS " << icp.rms_mm << " mm, TRE at the screw paths "
     << result.figures["surface"]["tre"]["rms"].get<double>() << " mm RMS";
   result.summary = s.str();
-  static_cast<void>(session);
   return result;
 }
 
