@@ -27,6 +27,8 @@ struct DeformTrialOptions {
   std::string write_case;
   std::string correspondence = "arc-length";
   std::string overlap = "split";
+  double contour_gate = 0.0;
+  bool keep_implausible = false;
 };
 
 Json summary(const deformation::Summary& s) {
@@ -53,6 +55,9 @@ deformation::DeformationTrialOptions trialOptions(const DeformTrialOptions& o) {
     throw InvalidArgumentError("deform-trial: --overlap must be split or refuse");
   }
   t.segmentation.split_overlapping = o.overlap == "split";
+  if (!(o.contour_gate >= 0.0)) throw InvalidArgumentError("deform-trial: --contour-gate must be >= 0 (0 = off)");
+  t.tracker.contour_gate_mahalanobis = o.contour_gate;
+  t.tracker.reject_implausible_frames = !o.keep_implausible;
   return t;
 }
 
@@ -106,6 +111,9 @@ Report run(const DeformTrialOptions& o) {
   rep.json["seed"] = o.seed;
   rep.json["frames_per_case"] = o.frames;
   rep.json["correspondence"] = o.correspondence;
+  rep.json["overlap"] = o.overlap;
+  rep.json["contour_gate"] = o.contour_gate;
+  rep.json["reject_implausible_frames"] = !o.keep_implausible;
   rep.json["model"] = {{"training_shapes", t.training_shapes}, {"modes", r.model_modes}, {"points", r.model_points}};
   rep.json["noise_model"] = {{"us_calibration_error_rms_mm", t.calibration_error_mm},
                              {"us_calibration_rotation_deg", t.calibration_rotation_deg},
@@ -181,6 +189,12 @@ void registerDeformTrialVerb(CLI::App& app, GlobalOptions& options, VerbList& ve
                   "overlapping branch loops near the bifurcation: split (segment each lumen without the shared "
                   "side) or refuse (as ambiguous)")
       ->capture_default_str();
+  sub->add_option("--contour-gate", opts->contour_gate,
+                  "refuse a contour whose RMS Mahalanobis distance from the posterior predictive exceeds this "
+                  "(0 = off)")
+      ->capture_default_str();
+  sub->add_flag("--keep-implausible", opts->keep_implausible,
+                "keep frames whose observations make the posterior implausible (default: undo them)");
   sub->add_option("--correspondence", opts->correspondence,
                   "feature-to-model contour pairing: arc-length (paper, Eq. 8 + cyclic shift) or closest-point")
       ->capture_default_str();

@@ -94,6 +94,23 @@ std::vector<Eigen::Vector3d> closestOnPolyline(const std::vector<Eigen::Vector3d
 
 }  // namespace
 
+double PosteriorShapeTracker::contourMahalanobisRms(const ModelContour& mc, const std::vector<ContourParameter>& params,
+                                                    const std::vector<Eigen::Vector3d>& feature_points) const {
+  const double s2 = options_.posterior.noise_sigma_mm * options_.posterior.noise_sigma_mm;
+  const bool prior = posterior_.coefficient_covariance.rows() != model_.modeCount();
+  double sum = 0.0;
+  for (std::size_t i = 0; i < params.size(); ++i) {
+    const ModelPointObservation o = mc.modelPoint(params[i]);
+    const Eigen::Matrix<double, 3, Eigen::Dynamic> q = observationRows(model_, o);
+    Eigen::Matrix3d cov = (prior ? Eigen::Matrix3d(q * q.transpose())
+                                 : Eigen::Matrix3d(q * posterior_.coefficient_covariance * q.transpose())) +
+                          s2 * Eigen::Matrix3d::Identity();
+    const Eigen::Vector3d d = feature_points[i] - o.point;
+    sum += d.dot(cov.ldlt().solve(d));
+  }
+  return params.empty() ? 0.0 : std::sqrt(sum / static_cast<double>(params.size()));
+}
+
 FrameUpdate PosteriorShapeTracker::update(const Eigen::Isometry3d& model_T_image,
                                           std::span<const Polyline3d> feature_contours) {
   const auto t0 = std::chrono::steady_clock::now();
@@ -124,6 +141,7 @@ FrameUpdate PosteriorShapeTracker::update(const Eigen::Isometry3d& model_T_image
     return r;
   }
   const int k = options_.contour_points;
+  const std::vector<ModelPointObservation> before = observations_;
   std::vector<char> model_used(model_contours.size(), 0);
   for (const Polyline3d& fc_image : feature_contours) {
     if (fc_image.points.size() < 3) continue;
@@ -153,6 +171,13 @@ FrameUpdate PosteriorShapeTracker::update(const Eigen::Isometry3d& model_T_image
     const std::vector<Eigen::Vector3d> fpts = options_.correspondence == ContourCorrespondence::ArcLength
                                                   ? alignCyclic(mpts, fres.points)
                                                   : closestOnPolyline(mpts, fc);
+    if (options_.contour_gate_mahalanobis > 0.0 &&
+        contourMahalanobisRms(mc, mparams, fpts) > options_.contour_gate_mahalanobis) {
+      model_used[static_cast<std::size_t>(best)] = 0;
+      --r.matched_contours;
+      ++r.gated_contours;
+      continue;
+    }
     // Step (d): replace the nearest stored observation within D^Thr, else add.
     for (int i = 0; i < k; ++i) {
       ModelPointObservation o = mc.modelPoint(mparams[static_cast<std::size_t>(i)]);
@@ -186,6 +211,14 @@ FrameUpdate PosteriorShapeTracker::update(const Eigen::Isometry3d& model_T_image
     posterior_ = computePosterior(model_, observations_, options_.posterior);
   } catch (const Error& e) {
     r.status = std::string("posterior failed: ") + e.what();
+    return r;
+  }
+  if (options_.reject_implausible_frames && !posterior_.plausible) {
+    observations_ = before;
+    posterior_ = computePosterior(model_, observations_, options_.posterior);
+    r.observations = static_cast<int>(observations_.size());
+    r.status = "frame undone: it made the posterior implausible";
+    r.elapsed_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     return r;
   }
   shape_ = posterior_.mean;

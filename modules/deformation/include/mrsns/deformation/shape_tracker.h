@@ -44,6 +44,15 @@ struct ShapeTrackerOptions {
   /// Cut the current posterior (true) or always the prior mean (the paper's
   /// literal step (c)2). The posterior follows the tissue further.
   bool cut_posterior = true;
+  /// Per-contour gate: a feature contour whose K paired points, standardised
+  /// by the current posterior predictive covariance (Q_v Sigma_alpha Q_v^T +
+  /// sigma^2 I, 3 dof each), have an RMS Mahalanobis distance beyond this is
+  /// not used (a wrong lumen or a failed fit would pull the whole shape).
+  /// The expected RMS for a consistent contour is sqrt(3) = 1.73. 0 = off.
+  double contour_gate_mahalanobis = 0.0;
+  /// Undo a frame whose observations make the posterior implausible
+  /// (PosteriorResult::plausible false): the shape keeps the last plausible state.
+  bool reject_implausible_frames = true;
   PosteriorOptions posterior;
 };
 
@@ -53,6 +62,7 @@ struct FrameUpdate {
   std::string status;    ///< "ok", or why nothing was updated.
   int model_contours = 0;
   int matched_contours = 0;
+  int gated_contours = 0;  ///< Matched but refused by the per-contour gate.
   int added = 0;
   int replaced = 0;
   int observations = 0;  ///< Size of V^p after the frame.
@@ -86,6 +96,11 @@ class PosteriorShapeTracker {
   [[nodiscard]] const std::vector<ModelPointObservation>& observations() const { return observations_; }
 
  private:
+  // RMS over the paired points of the 3-dof Mahalanobis distance of each
+  // feature point from its model point under the posterior predictive.
+  [[nodiscard]] double contourMahalanobisRms(const ModelContour& mc, const std::vector<ContourParameter>& params,
+                                             const std::vector<Eigen::Vector3d>& feature_points) const;
+
   ShapeModel model_;
   ShapeTrackerOptions options_;
   TriangleMesh current_;  // topology of the model, vertices of shape_
