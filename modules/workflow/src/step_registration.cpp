@@ -1,6 +1,9 @@
 // Patient registration on the generated cervical phantom: stylus landmarks
 // on the fiducial screws (paired points), then points digitised on the
 // posterior bone surface (ICP), against a simulated patient pose.
+#include <algorithm>
+#include <array>
+#include <cmath>
 #include <filesystem>
 #include <sstream>
 
@@ -16,16 +19,35 @@ namespace mrsns::workflow::detail {
 
 namespace {
 
-/// The neck outline (everything denser than air) as a one-label map, so the
-/// soft tissue can be meshed with the same code as the bone.
-ImageVolume softTissueMask(const ImageVolume& ct) {
-  ImageVolume mask = ct;
+/// A uint8 label map sampled from `image` on the voxel block [lo, hi) every
+/// `stride` voxels (block centres), label 1 where `inside(value)`. Meshing a
+/// crop or a coarser grid keeps the context models (vessel, neck outline)
+/// from costing more than the registration itself.
+template <typename Inside>
+ImageVolume sampledMask(const ImageVolume& image, std::array<int, 3> lo, std::array<int, 3> hi, int stride,
+                        Inside inside) {
+  ImageVolume mask;
   mask.pixel_type = PixelType::UInt8;
-  mask.data.assign(ct.voxelCount(), std::byte{0});
-  // Halfway between air and soft tissue: the partial-volume boundary.
-  const double threshold = 0.5 * (registration::PhantomDensities::air + registration::PhantomDensities::soft_tissue);
-  for (std::size_t i = 0; i < ct.voxelCount(); ++i) {
-    if (ct.valueAtIndex(i) > threshold) mask.data[i] = std::byte{1};
+  mask.direction = image.direction;
+  mask.frame = image.frame;
+  mask.spacing = image.spacing * stride;
+  for (int a = 0; a < 3; ++a) {
+    lo[a] = std::clamp(lo[a], 0, image.size[a] - 1);
+    hi[a] = std::clamp(hi[a], lo[a] + 1, image.size[a]);
+    mask.size[a] = std::max(1, (hi[a] - lo[a]) / stride);
+  }
+  const double half = 0.5 * (stride - 1);
+  mask.origin = image.indexToPhysical(Eigen::Vector3d(lo[0] + half, lo[1] + half, lo[2] + half));
+  mask.data.assign(mask.voxelCount(), std::byte{0});
+  const int c = stride / 2;
+  for (int k = 0; k < mask.size[2]; ++k) {
+    for (int j = 0; j < mask.size[1]; ++j) {
+      for (int i = 0; i < mask.size[0]; ++i) {
+        const double v = image.valueAtIndex(
+            image.linearIndex(lo[0] + i * stride + c, lo[1] + j * stride + c, lo[2] + k * stride + c));
+        if (inside(v)) mask.data[mask.linearIndex(i, j, k)] = std::byte{1};
+      }
+    }
   }
   return mask;
 }
@@ -46,15 +68,33 @@ Json writePhantomModels(Session& session, const registration::CervicalPhantom& p
   for (const auto& m : bone_meshes.meshes) {
     write(m.mesh, "registration/models/" + m.name + ".vtp", "vertebrae");
   }
+  // The vessel is a straight tube along z: mesh the columns around it only.
+  const double margin_mm = phantom.vessel_outer_radius_mm + 3.0;
+  const Eigen::Vector3d a =
+      phantom.labels.physicalToIndex(phantom.vessel_center - Eigen::Vector3d::Constant(margin_mm));
+  const Eigen::Vector3d b =
+      phantom.labels.physicalToIndex(phantom.vessel_center + Eigen::Vector3d::Constant(margin_mm));
+  const auto vessel = sampledMask(
+      phantom.labels,
+      {static_cast<int>(std::floor(std::min(a.x(), b.x()))), static_cast<int>(std::floor(std::min(a.y(), b.y()))), 0},
+      {static_cast<int>(std::ceil(std::max(a.x(), b.x()))) + 1, static_cast<int>(std::ceil(std::max(a.y(), b.y()))) + 1,
+       phantom.labels.size[2]},
+      1, [](double v) { return static_cast<int>(v) == registration::kPhantomVesselLabel; });
   registration::LabelMeshOptions vessel_options;
-  vessel_options.labels = {registration::kPhantomVesselLabel};
   vessel_options.target_triangles = 2000;
-  write(registration::meshLabelMap(phantom.labels, vessel_options).meshes.at(0).mesh, "registration/models/vessel.vtp",
+  write(registration::meshLabelMap(vessel, vessel_options).meshes.at(0).mesh, "registration/models/vessel.vtp",
         "soft-tissue");
+  // The neck outline (denser than halfway from air to soft tissue, the
+  // partial-volume boundary) is smooth: a ~3 mm grid is plenty for a
+  // translucent context surface.
+  const int stride = std::max(1, static_cast<int>(std::lround(3.0 / phantom.ct.spacing.minCoeff())));
+  const double threshold = 0.5 * (registration::PhantomDensities::air + registration::PhantomDensities::soft_tissue);
+  const auto neck =
+      sampledMask(phantom.ct, {0, 0, 0}, phantom.ct.size, stride, [threshold](double v) { return v > threshold; });
   registration::LabelMeshOptions tissue_options;
   tissue_options.target_triangles = 3000;
-  write(registration::meshLabelMap(softTissueMask(phantom.ct), tissue_options).meshes.at(0).mesh,
-        "registration/models/soft_tissue.vtp", "soft-tissue");
+  write(registration::meshLabelMap(neck, tissue_options).meshes.at(0).mesh, "registration/models/soft_tissue.vtp",
+        "soft-tissue");
   return models;
 }
 
