@@ -2,6 +2,7 @@
 // every figure the module steps produce, and an HTML page.
 #include <gtest/gtest.h>
 
+#include <cstdlib>
 #include <fstream>
 #include <nlohmann/json.hpp>
 
@@ -13,8 +14,8 @@ namespace {
 
 TEST(CliTrial, ShortTrialReportHasEveryFigure) {
   const auto dir = scratchDirectory("trial") / "report";
-  const auto r = runCli(
-      {"trial", "--out", dir.string(), "--seed", "2", "--navigation-s", "1.2", "--deformation-cases", "1", "--json"});
+  const auto r = runCli({"trial", "--out", dir.string(), "--seed", "2", "--navigation-s", "1.2", "--deformation-cases",
+                         "1", "--hmd-trials", "2", "--placement-trials", "1", "--json"});
   ASSERT_EQ(r.exit_code, 0) << r.err << r.out;
   const auto printed = nlohmann::json::parse(r.out);
   EXPECT_TRUE(printed["ok"].get<bool>());
@@ -34,12 +35,18 @@ TEST(CliTrial, ShortTrialReportHasEveryFigure) {
       {"registration",
        {"/landmarks/fre_rms_mm", "/landmarks/tre/rms", "/surface/rms_mm", "/surface/tre/rms", "/targets",
         "/transforms/CTToPatient"}},
-      {"hmd-calibration", {"/rigid_rms_mm", "/tre_at_patient_mm", "/transforms/HoloLensToTracker"}},
+      {"hmd-calibration",
+       {"/rigid_rms_mm", "/tre_at_patient_mm", "/transforms/HoloLensToTracker", "/cube_trial/compensated/mean_rms_mm",
+        "/cube_trial/uncompensated/mean_rms_mm", "/cube_trial/pointer/mean_rms_mm", "/cube_trial/noise_model",
+        "/checkerboard_trial/rpee_mean_mm", "/checkerboard_trial/rpee_std_mm", "/checkerboard_trial/noise_model"}},
       {"navigation",
        {"/batches", "/frames_in_file", "/mean_loop_latency_ms", "/robot_stopped", "/stop_reason",
         "/deformation/posterior_sd_mean_mm", "/deformation/posterior_fp_mm", "/deformation/prior_sd_mean_mm",
         "/deformation/update_ms_p50"}},
-      {"robot-placement", {"/entry_error_mm/mean", "/target_error_mm/mean", "/angle_error_deg/mean", "/paths"}},
+      {"robot-placement",
+       {"/entry_error_mm/mean", "/target_error_mm/mean", "/angle_error_deg/mean", "/paths",
+        "/module_trial/distance_deviation_mm/mean", "/module_trial/angle_deviation_deg/mean",
+        "/module_trial/noise_model"}},
   };
   for (const auto& [step, pointers] : expected) {
     SCOPED_TRACE(step);
@@ -55,6 +62,26 @@ TEST(CliTrial, ShortTrialReportHasEveryFigure) {
   }
   // The simulated tracker loss stopped the robot, with the reason.
   EXPECT_TRUE(steps["navigation"]["figures"]["robot_stopped"].get<bool>());
+  // Paper 001 Fig. 7's ordering (compensated beats the pointer method) and a
+  // completed robot placement; the simulated noise is far from this close call.
+  const auto& cube = steps["hmd-calibration"]["figures"]["cube_trial"];
+  EXPECT_LT(cube["compensated"]["mean_rms_mm"].get<double>(), cube["pointer"]["mean_rms_mm"].get<double>());
+  EXPECT_GT(steps["robot-placement"]["figures"]["module_trial"]["completed"].get<int>(), 0);
+  // Snapshots: written under a display (CI runs under xvfb-run -a), else skipped with the reason.
+  const char* display = std::getenv("DISPLAY");
+  if (display != nullptr && *display != '\0') {
+    ASSERT_EQ(report["images"].size(), 3U) << report["snapshots_skipped"];
+    for (const auto& image : report["images"]) {
+      const auto png = dir / image.get<std::string>();
+      EXPECT_TRUE(std::filesystem::exists(png)) << png;
+      std::ifstream file(png, std::ios::binary);
+      char magic[4] = {};
+      file.read(magic, 4);
+      EXPECT_EQ(std::string(magic + 1, 3), "PNG") << png;
+    }
+  } else {
+    EXPECT_NE(report["snapshots_skipped"].get<std::string>().find("xvfb-run"), std::string::npos);
+  }
   // Paper 001's figures are beside ours.
   EXPECT_EQ(report["paper"]["placement_distance_deviation_mm"]["mean"], 1.04);
   std::ifstream html(dir / "index.html");
@@ -62,6 +89,12 @@ TEST(CliTrial, ShortTrialReportHasEveryFigure) {
   page << html.rdbuf();
   EXPECT_NE(page.str().find("Figures beside the papers"), std::string::npos);
   EXPECT_NE(page.str().find("1.04 &plusmn; 0.27"), std::string::npos);
+  EXPECT_NE(page.str().find("1.64 &plusmn; 0.48"), std::string::npos);
+  EXPECT_NE(page.str().find("3.20 &plusmn; 1.60"), std::string::npos);
+  EXPECT_NE(page.str().find("noise model: "), std::string::npos);
+  for (const auto& image : report["images"]) {
+    EXPECT_NE(page.str().find("<img src=\"" + image.get<std::string>()), std::string::npos);
+  }
   EXPECT_TRUE(std::filesystem::exists(dir / "session" / "session.json"));
 }
 

@@ -16,6 +16,10 @@ void registerTrialVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs) {
     double navigation_s = 2.0;
     int deformation_cases = 3;
     bool progress = false;
+    bool no_snapshots = false;
+    int hmd_trials = 3;
+    int checkerboard_poses = 5;
+    int placement_trials = 2;
   };
   auto args = std::make_shared<TrialArgs>();
   auto* sub = app.add_subcommand(
@@ -31,6 +35,20 @@ void registerTrialVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs) {
   sub->add_option("--deformation-cases", args->deformation_cases, "deformation trial cases (paper: 6)")
       ->check(CLI::Range(0, 20))
       ->capture_default_str();
+  sub->add_option("--hmd-trials", args->hmd_trials, "paper 001 Fig. 7 cube trials per method (0 skips)")
+      ->check(CLI::Range(0, 50))
+      ->check([](const std::string& v) { return v == "1" ? std::string("must be 0 (skip) or >= 2") : std::string(); })
+      ->capture_default_str();
+  sub->add_option("--checkerboard-poses", args->checkerboard_poses, "paper 000 checkerboard poses (0 skips, else >= 3)")
+      ->check(CLI::Range(0, 50))
+      ->check([](const std::string& v) {
+        return v == "1" || v == "2" ? std::string("must be 0 (skip) or >= 3") : std::string();
+      })
+      ->capture_default_str();
+  sub->add_option("--placement-trials", args->placement_trials, "robot placement trials, 2 screws each (0 skips)")
+      ->check(CLI::Range(0, 20))
+      ->capture_default_str();
+  sub->add_flag("--no-snapshots", args->no_snapshots, "write no PNG snapshots (they need an X display)");
   sub->add_flag("--progress", args->progress, "print progress lines on stderr");
   addJsonFlag(*sub, options);
   verbs.emplace_back(sub, [args]() -> Report {
@@ -39,6 +57,10 @@ void registerTrialVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs) {
     trial.seed = args->seed;
     trial.navigation_s = args->navigation_s;
     trial.deformation_cases = args->deformation_cases;
+    trial.hmd_cube_trials = args->hmd_trials;
+    trial.checkerboard_poses = args->checkerboard_poses;
+    trial.placement_trials = args->placement_trials;
+    trial.write_snapshots = !args->no_snapshots;
     if (args->progress) {
       trial.context.progress = [](double f, const std::string& message) {
         std::cerr << static_cast<int>(f * 100.0) << "% " << message << "\n";
@@ -56,6 +78,10 @@ void registerTrialVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs) {
          << " s; report " << result.index_html.string() << "\n";
     for (const auto& [name, s] : result.report["steps"].items()) {
       text << "  " << name << ": " << s.value("status", "?") << " - " << s.value("summary", "") << "\n";
+    }
+    for (const auto& image : result.report["images"]) text << "  snapshot " << image.get<std::string>() << "\n";
+    if (!result.report["snapshots_skipped"].get<std::string>().empty()) {
+      text << "  snapshots skipped: " << result.report["snapshots_skipped"].get<std::string>() << "\n";
     }
     report.text = text.str();
     if (!result.ok) {

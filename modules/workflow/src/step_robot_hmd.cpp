@@ -3,6 +3,7 @@
 // transforms the real devices use.
 #include <sstream>
 
+#include "module_trials.h"
 #include "mrsns/registration/paired_point.h"
 #include "simulation.h"
 #include "step_internal.h"
@@ -86,12 +87,24 @@ StepResult runRobotCalibration(Session& /*session*/, const Json& params, const S
 }
 
 StepResult runHmdCalibration(Session& /*session*/, const Json& params, const StepContext& context) {
-  const Params p("hmd-calibration", params, {"seed", "hologram_noise_mm", "tracker_noise_mm", "cube_poses"});
+  const Params p("hmd-calibration", params,
+                 {"seed", "hologram_noise_mm", "tracker_noise_mm", "cube_poses", "cube_trials", "checkerboard_poses"});
   const auto seed = static_cast<std::uint64_t>(p.integer("seed", 1));
   const double holo_noise = p.number("hologram_noise_mm", 1.5);
   const double tracker_noise = p.number("tracker_noise_mm", 0.25);
   const int cube_poses = p.integer("cube_poses", 3);
+  // The module trials (paper 001 Fig. 7 and paper 000); 0 leaves one out.
+  const int cube_trials = p.integer("cube_trials", 4);
+  const int checkerboard_poses = p.integer("checkerboard_poses", 5);
   if (cube_poses < 1) throw InvalidArgumentError("hmd-calibration: cube_poses must be >= 1");
+  if (cube_trials == 1 || cube_trials < 0) {
+    throw InvalidArgumentError("hmd-calibration: cube_trials must be 0 (skip) or >= 2 (got " +
+                               std::to_string(cube_trials) + ")");
+  }
+  if (checkerboard_poses < 0 || (checkerboard_poses > 0 && checkerboard_poses < 3)) {
+    throw InvalidArgumentError("hmd-calibration: checkerboard_poses must be 0 (skip) or >= 3 (got " +
+                               std::to_string(checkerboard_poses) + ")");
+  }
   Simulation sim(seed * 15485863 + 5);
   const Eigen::Isometry3d tracker_T_hololens = sim.pose(3.0, Eigen::Vector3d(0.0, -300.0, -600.0), 50.0);
   // The 8 vertices of the 60 mm calibration cube, aligned by the user with
@@ -131,6 +144,16 @@ StepResult runHmdCalibration(Session& /*session*/, const Json& params, const Ste
   figures["noise_model"] = {{"hologram_alignment_rms_mm", holo_noise}, {"tracker_rms_mm", tracker_noise}};
   figures["transforms"] = {{"HoloLensToTracker", matrixJson(estimate.matrix())}};
   figures["simulation_truth"] = {{"HoloLensToTracker", matrixJson(tracker_T_hololens.matrix())}};
+  if (cube_trials > 0) {
+    checkCancel(context);
+    context.report(0.9, "paper 001 Fig. 7: compensated, uncompensated and pointer calibration trials");
+    figures["cube_trial"] = cubeTrialFigures(cube_trials, seed);
+  }
+  if (checkerboard_poses > 0) {
+    checkCancel(context);
+    context.report(0.95, "paper 000: checkerboard hand-eye calibration of the HMD camera");
+    figures["checkerboard_trial"] = checkerboardTrialFigures(checkerboard_poses, seed);
+  }
   StepResult result;
   result.ok = true;
   result.figures = figures;
@@ -138,15 +161,25 @@ StepResult runHmdCalibration(Session& /*session*/, const Json& params, const Ste
   s.precision(3);
   s << "HoloLensToTracker from " << tracker_points.size() << " cube points: RMS "
     << figures["rigid_rms_mm"].get<double>() << " mm, hologram error at the patient " << tre << " mm";
+  if (figures.contains("cube_trial")) {
+    s << "; Fig. 7 trial RMS compensated " << figures["cube_trial"]["compensated"]["mean_rms_mm"].get<double>()
+      << " / uncompensated " << figures["cube_trial"]["uncompensated"]["mean_rms_mm"].get<double>() << " / pointer "
+      << figures["cube_trial"]["pointer"]["mean_rms_mm"].get<double>() << " mm";
+  }
+  if (figures.contains("checkerboard_trial")) {
+    s << "; checkerboard RPEE " << figures["checkerboard_trial"]["rpee_mean_mm"].get<double>() << " mm";
+  }
   result.summary = s.str();
   return result;
 }
 
 StepResult runRobotPlacement(Session& session, const Json& params, const StepContext& context) {
-  const Params p("robot-placement", params, {"seed", "robot_accuracy_mm", "tracker_noise_mm"});
+  const Params p("robot-placement", params, {"seed", "robot_accuracy_mm", "tracker_noise_mm", "placement_trials"});
   const auto seed = static_cast<std::uint64_t>(p.integer("seed", 1));
   const double robot_accuracy = p.number("robot_accuracy_mm", 0.3);
   const double tracker_noise = p.number("tracker_noise_mm", 0.25);
+  const int placement_trials = p.integer("placement_trials", 2);
+  if (placement_trials < 0) throw InvalidArgumentError("robot-placement: placement_trials must be >= 0 (0 skips)");
   const Eigen::Isometry3d est_patient_T_ct = recorded(session, "registration", "transforms", "CTToPatient");
   const Eigen::Isometry3d true_patient_T_ct = recorded(session, "registration", "simulation_truth", "CTToPatient");
   const Eigen::Isometry3d est_tracker_T_base =
@@ -181,7 +214,10 @@ StepResult runRobotPlacement(Session& session, const Json& params, const StepCon
     per_path.push_back({{"name", path["name"]},
                         {"entry_error_mm", entry_errors.back()},
                         {"target_error_mm", target_errors.back()},
-                        {"angle_error_deg", angle_errors.back()}});
+                        {"angle_error_deg", angle_errors.back()},
+                        // In the phantom's CT frame, for the snapshot of achieved vs planned paths.
+                        {"placed_entry_ct", {placed_entry.x(), placed_entry.y(), placed_entry.z()}},
+                        {"placed_target_ct", {placed_target.x(), placed_target.y(), placed_target.z()}}});
   }
   StepResult result;
   result.ok = !paths.empty();
@@ -190,12 +226,24 @@ StepResult runRobotPlacement(Session& session, const Json& params, const StepCon
                     {"target_error_mm", statsJson(target_errors)},
                     {"angle_error_deg", statsJson(angle_errors)},
                     {"noise_model", {{"robot_accuracy_rms_mm", robot_accuracy}, {"tracker_rms_mm", tracker_noise}}},
-                    {"robot", "simulated chain (robot module placement trial not linked)"}};
+                    {"robot", "transform chain of this session (Eq. 4) with a simulated robot"}};
+  if (placement_trials > 0) {
+    checkCancel(context);
+    context.report(0.9, "robot module placement trial (UR5 simulator, control loop, supervisor)");
+    result.figures["module_trial"] = placementTrialFigures(placement_trials, seed);
+    result.ok = result.ok && result.figures["module_trial"]["completed"].get<int>() > 0;
+  }
   std::ostringstream s;
   s.precision(3);
   s << paths.size() << " screws placed: entry " << result.figures["entry_error_mm"]["mean"].get<double>()
     << " mm, target " << result.figures["target_error_mm"]["mean"].get<double>() << " mm, angle "
     << result.figures["angle_error_deg"]["mean"].get<double>() << " deg (mean)";
+  if (result.figures.contains("module_trial")) {
+    const auto& m = result.figures["module_trial"];
+    s << "; robot trial " << m["completed"].get<int>() << "/" << m["placements"].size() << " placed, distance "
+      << m["distance_deviation_mm"]["mean"].get<double>() << " mm, angle "
+      << m["angle_deviation_deg"]["mean"].get<double>() << " deg";
+  }
   result.summary = s.str();
   return result;
 }

@@ -47,6 +47,36 @@ std::string meanSd(const nlohmann::json& v) {
   return number(v["mean"]) + " &plusmn; " + number(v["sd"]);
 }
 
+// "mean &plusmn; sd" from two keys of an object.
+std::string meanSdOf(const nlohmann::json& v, const char* mean, const char* sd) {
+  if (!v.is_object()) return "&ndash;";
+  return number(at(v, mean)) + " &plusmn; " + number(at(v, sd));
+}
+
+// A noise model as one line of "name value" pairs, so it sits beside its figure.
+std::string compact(const nlohmann::json& v) {
+  if (v.is_number_float()) {
+    std::ostringstream s;
+    s << v.get<double>();
+    return s.str();
+  }
+  if (v.is_string()) return escape(v.get<std::string>());
+  if (v.is_array()) {
+    std::string out;
+    for (const auto& x : v) out += (out.empty() ? "" : "&ndash;") + compact(x);
+    return out;
+  }
+  if (!v.is_object()) return escape(v.dump());
+  std::string out;
+  for (const auto& [k, x] : v.items()) out += (out.empty() ? "" : ", ") + escape(k) + " " + compact(x);
+  return out;
+}
+
+std::string noiseNote(const char* what, const nlohmann::json& model) {
+  if (model.is_null()) return what;
+  return std::string(what) + "<br><small>noise model: " + compact(model) + "</small>";
+}
+
 }  // namespace
 
 std::string renderTrialHtml(const nlohmann::json& report) {
@@ -56,9 +86,13 @@ std::string renderTrialHtml(const nlohmann::json& report) {
     const char* what;
     std::string ours;
     std::string reference;
-    const char* note;
+    std::string note;
   };
   const std::string fig = "/figures/";
+  const auto cube = at(steps, "hmd-calibration/figures/cube_trial");
+  const auto board = at(steps, "hmd-calibration/figures/checkerboard_trial");
+  const auto robot = at(steps, "robot-placement/figures/module_trial");
+  const std::string cube_note = noiseNote("hmd::runCubeTrial", at(cube, "noise_model"));
   const std::vector<Row> rows = {
       {"US calibration, validation 3D reprojection (mm)",
        number(at(steps, "us-spatial-calibration" + fig + "validation/reprojection_3d_mean_mm")),
@@ -71,18 +105,43 @@ std::string renderTrialHtml(const nlohmann::json& report) {
        "&ndash;", "landmarks + ICP on the posterior bone"},
       {"Robot calibration, error at the patient (mm)",
        number(at(steps, "robot-calibration" + fig + "tre_at_patient_mm")), "&ndash;", "simulated UR5 + tracker"},
-      {"MR (HMD) calibration RMS (mm)", number(at(steps, "hmd-calibration" + fig + "rigid_rms_mm")),
-       meanSd(paper["mr_calibration_rms_mm"]), "calibration cube, Eq. 2-3"},
+      {"MR (HMD) calibration of this session, cube fit RMS (mm)",
+       number(at(steps, "hmd-calibration" + fig + "rigid_rms_mm")), "&ndash;",
+       noiseNote("calibration cube, Eq. 2-3", at(steps, "hmd-calibration" + fig + "noise_model"))},
+      {"MR calibration, Fig. 7 compensated (tremor + 4 views), Eq. 23 RMS (mm)",
+       meanSdOf(cube, "compensated/mean_rms_mm", "compensated/std_rms_mm"), meanSd(paper["mr_calibration_rms_mm"]),
+       cube_note},
+      {"MR calibration, Fig. 7 uncompensated, Eq. 23 RMS (mm)",
+       meanSdOf(cube, "uncompensated/mean_rms_mm", "uncompensated/std_rms_mm"), "&ndash;", "same trials"},
+      {"MR calibration, Fig. 7 pointer method, Eq. 23 RMS (mm)",
+       meanSdOf(cube, "pointer/mean_rms_mm", "pointer/std_rms_mm"), "&ndash;", "same trials"},
+      {"MR calibration, improvement vs uncompensated (%)", number(at(cube, "improvement_vs_uncompensated_percent")),
+       number(paper["mr_calibration_improvement_vs_uncompensated_percent"]), "paper 001 Fig. 7"},
+      {"MR calibration, improvement vs pointer (%)", number(at(cube, "improvement_vs_pointer_percent")),
+       number(paper["mr_calibration_improvement_vs_pointer_percent"]), "paper 001 Fig. 7"},
+      {"HMD camera checkerboard hand-eye, retro-projection error (mm)", meanSdOf(board, "rpee_mean_mm", "rpee_std_mm"),
+       meanSd(paper["checkerboard_rpee_mm"]) + " (paper 000)",
+       noiseNote("hmd::runCheckerboardTrial", at(board, "noise_model"))},
+      {"HMD camera hand-eye, error vs truth (deg / mm)",
+       number(at(board, "hand_eye_rotation_error_deg")) + " / " + number(at(board, "hand_eye_translation_error_mm")),
+       "&ndash;", "simulation truth"},
       {"Deformation, mean surface distance E^SD (mm)",
        number(at(steps, "navigation" + fig + "deformation/posterior_sd_mean_mm")),
        meanSd(paper["deformation_mean_surface_distance_mm"]), "posterior shape model, Table I"},
       {"Deformation, fiducial point error E^FP (mm)",
        number(at(steps, "navigation" + fig + "deformation/posterior_fp_mm")),
        meanSd(paper["deformation_fiducial_point_error_mm"]), "Table I"},
-      {"Placement, distance deviation at the entry (mm)",
-       number(at(steps, "robot-placement" + fig + "entry_error_mm/mean")),
-       meanSd(paper["placement_distance_deviation_mm"]), "C5/C6 pedicle screws"},
-      {"Placement, angle deviation (deg)", number(at(steps, "robot-placement" + fig + "angle_error_deg/mean")),
+      {"Placement, robot trial distance deviation (mm)", meanSd(at(robot, "distance_deviation_mm")),
+       meanSd(paper["placement_distance_deviation_mm"]),
+       noiseNote("robot::runPlacementTrial, C5/C6 pedicle screws", at(robot, "noise_model"))},
+      {"Placement, robot trial angle deviation (deg)", meanSd(at(robot, "angle_deviation_deg")),
+       meanSd(paper["placement_angle_deviation_deg"]), "same trials"},
+      {"Placement, robot trial tip deviation (mm)", meanSd(at(robot, "tip_deviation_mm")), "&ndash;", "same trials"},
+      {"Placement, session chain entry error (mm)", number(at(steps, "robot-placement" + fig + "entry_error_mm/mean")),
+       meanSd(paper["placement_distance_deviation_mm"]),
+       noiseNote("Eq. 4 chain of this session", at(steps, "robot-placement" + fig + "noise_model"))},
+      {"Placement, session chain angle error (deg)",
+       number(at(steps, "robot-placement" + fig + "angle_error_deg/mean")),
        meanSd(paper["placement_angle_deviation_deg"]), ""},
       {"Navigation loop latency (ms)", number(at(steps, "navigation" + fig + "mean_loop_latency_ms")),
        meanSd(paper["navigation_delay_ms"]), "ours: tracking to hologram stream, no Wi-Fi/HMD"},
@@ -109,6 +168,10 @@ std::string renderTrialHtml(const nlohmann::json& report) {
       << escape(s.value("summary", "")) << "</td></tr>\n";
   }
   h << "</table>\n";
+  if (!report.value("snapshots_skipped", "").empty()) {
+    h << "<h2>Snapshots</h2>\n<p class=\"skipped\">Skipped: " << escape(report.value("snapshots_skipped", ""))
+      << "</p>\n";
+  }
   if (report.contains("images") && !report["images"].empty()) {
     h << "<h2>Snapshots</h2>\n";
     for (const auto& img : report["images"]) {

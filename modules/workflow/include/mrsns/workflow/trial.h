@@ -25,8 +25,16 @@ struct TrialOptions {
   /// Tracker loss during navigation (the supervisor must stop the robot).
   bool simulate_tracker_loss = true;
   StepContext context;
-  /// Writes PNG snapshots into the folder and returns their file names; the
-  /// CLI passes one built on the rendering module (workflow has no VTK).
+  /// The module trials run inside the steps (their cost): paper 001 Fig. 7
+  /// cube trials per method, paper 000 checkerboard poses, robot placement
+  /// trials (each places two screws). 0 leaves one out.
+  int hmd_cube_trials = 3;
+  int checkerboard_poses = 5;
+  int placement_trials = 2;
+  /// Writes PNG snapshots into the folder and returns their file names;
+  /// writeTrialSnapshots when unset. An exception skips the snapshots (the
+  /// report says why) without failing the trial.
+  bool write_snapshots = true;
   std::function<std::vector<std::string>(const std::filesystem::path& folder, const Session& session)> snapshots;
 };
 
@@ -40,6 +48,13 @@ struct TrialResult {
 /// Runs the trial. Throws FileError when `out` cannot be created or is not
 /// empty; step failures are recorded in the report, not thrown.
 TrialResult runPhantomTrial(const TrialOptions& options);
+
+/// The trial's snapshots (rendering module, offscreen): the registered
+/// phantom with its planned screw paths, the posterior soft-tissue shape
+/// coloured by its uncertainty, achieved vs planned screw paths. Returns the
+/// PNG file names written into `folder`. Throws UnsupportedError without an X
+/// display (run under xvfb-run -a).
+std::vector<std::string> writeTrialSnapshots(const std::filesystem::path& folder, const Session& session);
 
 /// Paper 001's published figures the report compares with.
 nlohmann::json paperReferenceFigures();
