@@ -167,6 +167,46 @@ TEST(ShapeTracker, ExactContoursOfAModelShapePullThePosteriorToIt) {
   EXPECT_FALSE(none.updated);
 }
 
+TEST(ShapeTracker, AFrameThatMakesThePosteriorImplausibleIsUndone) {
+  std::mt19937_64 rng(8);
+  std::vector<TriangleMesh> training;
+  for (int i = 0; i < 12; ++i) training.push_back(makeVesselPhantom(randomVesselDeformation(rng)));
+  ShapeModelBuildOptions build;
+  build.align = false;
+  const ShapeModel model = buildShapeModel(training, build).model;
+  Eigen::Isometry3d model_T_image = Eigen::Isometry3d::Identity();
+  model_T_image.translation() = Eigen::Vector3d(-16.0, -12.0, -15.0);  // mid-CCA
+  // A lumen 2.5 times the model's (8 % radius SD in training): no plausible
+  // shape has it, e.g. a wrong structure segmented.
+  std::vector<Polyline3d> features;
+  const TriangleMesh mean_mesh = shapeMesh(model, model.mean);
+  for (const auto& c : intersectMeshWithPlane(mean_mesh, model_T_image.translation(), model_T_image.linear().col(2))) {
+    Polyline3d p;
+    p.closed = true;
+    Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+    for (const auto& q : c.points) centre += model_T_image.inverse() * q;
+    centre /= static_cast<double>(c.points.size());
+    for (const auto& q : c.points) p.points.push_back(centre + 2.5 * (model_T_image.inverse() * q - centre));
+    features.push_back(p);
+  }
+  ASSERT_EQ(features.size(), 1u);
+  ShapeTrackerOptions opts;
+  opts.posterior.noise_sigma_mm = 0.1;
+  opts.reject_implausible_frames = false;
+  PosteriorShapeTracker keep(model, opts);
+  const FrameUpdate kept = keep.update(model_T_image, features);
+  ASSERT_TRUE(kept.updated) << kept.status;
+  ASSERT_FALSE(kept.plausible) << "the test needs an implausible frame; Mahalanobis " << kept.mahalanobis;
+  opts.reject_implausible_frames = true;
+  PosteriorShapeTracker undo(model, opts);
+  const FrameUpdate undone = undo.update(model_T_image, features);
+  EXPECT_FALSE(undone.updated);
+  EXPECT_EQ(undone.observations, 0);
+  EXPECT_TRUE(undo.observations().empty());
+  EXPECT_EQ(undo.currentShape(), model.mean);
+  EXPECT_TRUE(undo.posterior().plausible);
+}
+
 TEST(DeformationTrial, DefaultProtocolImprovesOnThePrior) {
   DeformationTrialOptions o;  // 6 cases, 90 frames, 1.2 mm calibration, 0.35 mm tracking error
   const auto r = runDeformationTrial(o);
