@@ -10,6 +10,7 @@
 #include "mrsns/core/mesh_locator.h"
 #include "mrsns/io/mesh_io.h"
 #include "mrsns/io/sequence_file.h"
+#include "mrsns/registration/phantom_cervical.h"
 #include "mrsns/workflow/steps.h"
 #include "test_data.h"
 
@@ -91,6 +92,32 @@ TEST(Steps, EverySimulatedStepRunsWithProgressAndRecordsFigures) {
     const auto& e = path["entry_ct"];
     const Eigen::Vector3d entry(e[0].get<double>(), e[1].get<double>(), e[2].get<double>());
     EXPECT_LT(bone.closestPoint(entry).distance, 2.0) << name;
+  }
+  // The vessel model is the phantom's tube (same seed and spacing): every
+  // wall vertex between the lumen and the outer wall radius, give or take one
+  // 1.5 mm voxel; the neck outline encloses every vertebra.
+  registration::PhantomOptions phantom_options;
+  phantom_options.spacing_mm = 1.5;
+  const auto phantom = registration::generateCervicalPhantom(phantom_options);
+  const auto vessel = io::readMesh(session.resolve("registration/models/vessel.vtp"));
+  ASSERT_GT(vessel.vertexCount(), 100);
+  // The tube is closed by caps where it leaves the image: skip those.
+  const double z_min = vessel.vertices.col(2).minCoeff() + 2.0;
+  const double z_max = vessel.vertices.col(2).maxCoeff() - 2.0;
+  for (Eigen::Index i = 0; i < vessel.vertexCount(); ++i) {
+    if (vessel.vertices(i, 2) < z_min || vessel.vertices(i, 2) > z_max) continue;
+    const double r = (vessel.vertices.row(i).head<2>().transpose() - phantom.vessel_center.head<2>()).norm();
+    ASSERT_GT(r, phantom.vessel_lumen_radius_mm - 1.5) << "vertex " << i;
+    ASSERT_LT(r, phantom.vessel_outer_radius_mm + 1.5) << "vertex " << i;
+  }
+  const auto neck = io::readMesh(session.resolve("registration/models/soft_tissue.vtp"));
+  const Eigen::Vector3d neck_min = neck.vertices.colwise().minCoeff().transpose();
+  const Eigen::Vector3d neck_max = neck.vertices.colwise().maxCoeff().transpose();
+  for (const char* level : {"C3", "C7"}) {
+    const auto bone = io::readMesh(session.resolve(std::string("registration/models/") + level + ".vtp"));
+    const Eigen::Vector3d lo = bone.vertices.colwise().minCoeff().transpose();
+    const Eigen::Vector3d hi = bone.vertices.colwise().maxCoeff().transpose();
+    EXPECT_TRUE((lo.array() > neck_min.array()).all() && (hi.array() < neck_max.array()).all()) << level;
   }
   EXPECT_LT(session.step("robot-calibration")["figures"]["tre_at_patient_mm"].get<double>(), 1.5);
   EXPECT_LT(session.step("hmd-calibration")["figures"]["tre_at_patient_mm"].get<double>(), 3.0);
