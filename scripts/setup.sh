@@ -45,8 +45,11 @@ phase_start "main job"
 cli="$MRSNS_BUILD_DIR/app/cli/mrsns-cli"
 out="$MRSNS_BUILD_DIR/trial"
 rm -rf "$out"
-echo "---- mrsns-cli trial --out $out"
-MRSNS_DATA_DIR="$MRSNS_DATA_DIR" "$cli" trial --out "$out"
+# The report's snapshots need an X display; without one, a virtual one.
+display=()
+if [ -z "${DISPLAY:-}" ] && command -v xvfb-run >/dev/null; then display=(xvfb-run -a); fi
+echo "---- ${display[*]} mrsns-cli trial --out $out"
+MRSNS_DATA_DIR="$MRSNS_DATA_DIR" "${display[@]}" "$cli" trial --out "$out"
 echo
 echo "Main job done; report in $out/index.html"
 phase_end
