@@ -82,7 +82,15 @@ TEST(CliDeformTrial, PrintsTableIFigures) {
   EXPECT_EQ(j["noise_model"]["us_calibration_error_rms_mm"], 1.2);
   EXPECT_EQ(j["noise_model"]["tracking_noise_rms_mm"], 0.35);
   EXPECT_EQ(j["per_case"].size(), 2u);
+  EXPECT_EQ(j["overlap"], "split");
+  EXPECT_EQ(j["reject_implausible_frames"], true);
+  int split = 0;
+  for (const auto& c : j["per_case"]) split += c["contours_split"].get<int>();
+  EXPECT_GT(split, 0);  // the sweep crosses the bifurcation
   EXPECT_EQ(runCli({"deform-trial", "--cases", "0"}).exit_code, 1);
+  const auto bad = runCli({"deform-trial", "--cases", "1", "--overlap", "merge"});
+  EXPECT_EQ(bad.exit_code, 1);
+  EXPECT_NE(bad.err.find("--overlap"), std::string::npos);
 }
 
 }  // namespace

@@ -38,7 +38,13 @@ struct DeformationTrialOptions {
   VesselPhantomOptions phantom;
   BModeSimulationOptions bmode;
   LumenSegmentationOptions segmentation;
-  ShapeTrackerOptions tracker;
+  /// The built-in segmenter sometimes locks onto the wrong lumen: frames that
+  /// make the posterior implausible are undone.
+  ShapeTrackerOptions tracker = [] {
+    ShapeTrackerOptions t;
+    t.reject_implausible_frames = true;
+    return t;
+  }();
 };
 
 struct TrialCase {

@@ -51,8 +51,11 @@ struct ShapeTrackerOptions {
   /// The expected RMS for a consistent contour is sqrt(3) = 1.73. 0 = off.
   double contour_gate_mahalanobis = 0.0;
   /// Undo a frame whose observations make the posterior implausible
-  /// (PosteriorResult::plausible false): the shape keeps the last plausible state.
-  bool reject_implausible_frames = true;
+  /// (PosteriorResult::plausible false): the shape keeps the last plausible
+  /// state. Off by default: with exact contours of a shape outside the
+  /// model's span (deform-track with an external segmenter) it throws away
+  /// good frames; the trial turns it on for its built-in segmenter.
+  bool reject_implausible_frames = false;
   PosteriorOptions posterior;
 };
 
