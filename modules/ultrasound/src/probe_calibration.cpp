@@ -128,12 +128,22 @@ std::vector<double> frameTimes(const TrackedSequence& sequence) {
   return t;
 }
 
+// A sequence's video timestamps and probe poses, read once for the lag
+// search and the re-pairing.
+struct SequenceTiming {
+  std::vector<double> frame_times_s;
+  std::vector<FramePose> reference_T_probe;
+};
+
+SequenceTiming timingOf(const TrackedSequence& sequence) {
+  return {frameTimes(sequence), extractFramePoses(sequence.frames, "ProbeToReference").poses};
+}
+
 // The segmented frames paired with the pose at (video time + lag); as they
 // are when there is no lag to apply.
-std::vector<CalibrationFrame> shifted(const SequenceSegmentation& seg, const TrackedSequence& sequence, double lag_s) {
+std::vector<CalibrationFrame> shifted(const SequenceSegmentation& seg, const SequenceTiming& timing, double lag_s) {
   if (lag_s == 0.0) return seg.frames;
-  return pairWithTrackerLag(seg.frames, frameTimes(sequence),
-                            extractFramePoses(sequence.frames, "ProbeToReference").poses, lag_s);
+  return pairWithTrackerLag(seg.frames, timing.frame_times_s, timing.reference_T_probe, lag_s);
 }
 
 }  // namespace
@@ -150,11 +160,12 @@ ProbeCalibrationRun calibrateProbe(const io::DeviceSetConfiguration& config, con
   ProbeCalibrationRun run;
   run.calibration = segmentCalibrationSequence(calibration, phantom, seg_options);
   run.validation = segmentCalibrationSequence(validation, phantom, seg_options);
-  run.tracker_lag = estimateTrackerLag(run.calibration.frames, frameTimes(calibration),
-                                       extractFramePoses(calibration.frames, "ProbeToReference").poses, patterns,
-                                       reference_T_phantom, options, lag);
-  const auto calibration_frames = shifted(run.calibration, calibration, run.tracker_lag.lag_s);
-  const auto validation_frames = shifted(run.validation, validation, run.tracker_lag.lag_s);
+  const SequenceTiming calibration_timing = timingOf(calibration);
+  run.tracker_lag =
+      estimateTrackerLag(run.calibration.frames, calibration_timing.frame_times_s, calibration_timing.reference_T_probe,
+                         patterns, reference_T_phantom, options, lag);
+  const auto calibration_frames = shifted(run.calibration, calibration_timing, run.tracker_lag.lag_s);
+  const auto validation_frames = shifted(run.validation, timingOf(validation), run.tracker_lag.lag_s);
   run.calibration_frames_paired = calibration_frames.size();
   run.validation_frames_paired = validation_frames.size();
   run.result = calibrateSpatial(calibration_frames, patterns, reference_T_phantom, options);
