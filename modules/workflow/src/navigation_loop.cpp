@@ -1,11 +1,14 @@
 // The navigation loop: one worker thread fed by the tracking source's
 // callback, so the source's thread never waits for the disk or the network.
 #include <chrono>
+#include <cmath>
 
+#include "mrsns/core/error.h"
 #include "mrsns/core/log.h"
 #include "mrsns/igtlink/server.h"
 #include "mrsns/io/sequence_appender.h"
 #include "mrsns/workflow/navigation.h"
+#include "navigation_robot.h"
 
 namespace mrsns::workflow {
 
@@ -27,7 +30,27 @@ double wallSeconds() {
 
 NavigationLoop::NavigationLoop(NavigationOptions options, std::vector<tracking::HologramModel> models)
     : options_(std::move(options)), repository_(std::make_shared<TransformRepository>()) {
-  source_ = makeTrackingSource(options_.devices, repository_);
+  const auto& ro = options_.robot;
+  if (ro.robot != "none" && ro.robot != "simulated") {
+    throw InvalidArgumentError("navigation: unknown robot '" + ro.robot + "': use none or simulated");
+  }
+  DeviceOptions devices = options_.devices;
+  if (ro.robot == "simulated") {
+    // The drill marker is seen on the simulated arm by the loop, not scripted in the tracker: its dropout is
+    // applied here.
+    if (devices.dropout_tool == ro.tool_transform && devices.dropout_start_s >= 0.0) {
+      drill_dropout_start_s_ = devices.dropout_start_s;
+      drill_dropout_end_s_ = devices.dropout_start_s + devices.dropout_duration_s;
+      devices.dropout_start_s = -1.0;
+    }
+    const auto tool = TransformName::parse(ro.tool_transform);
+    const auto patient = TransformName::parse(ro.patient_transform);
+    robot_tool_ = repository_->prepare(tool.from, tool.to);
+    robot_patient_ = repository_->prepare(patient.from, patient.to);
+    robot_ = std::make_unique<detail::NavigationRobot>(ro, options_.silence_timeout_s, options_.devices.noise_mm,
+                                                       options_.devices.seed, [this] { return elapsed(); });
+  }
+  source_ = makeTrackingSource(devices, repository_);
   if (!options_.recording.empty()) {
     io::SequenceAppenderOptions rec;
     rec.sync_interval_s = options_.sync_interval_s;
@@ -87,9 +110,12 @@ void NavigationLoop::start() {
 
 void NavigationLoop::stop() {
   if (!running_.exchange(false)) return;
+  // The robot first: a tracker that stops because the loop ends is not a tracker loss.
+  if (robot_) robot_->stop();
   source_->stop();
   wake_.notify_all();
   if (thread_.joinable()) thread_.join();
+  if (robot_) pollRobot();
   if (server_) server_->stop();
   std::lock_guard lock(mutex_);
   if (recorder_) {
@@ -100,10 +126,34 @@ void NavigationLoop::stop() {
   status_.source = source_->status();
 }
 
-void NavigationLoop::rearm() {
+bool NavigationLoop::rearm() {
+  if (!robot_) {
+    std::lock_guard lock(mutex_);
+    status_.robot_stopped = false;
+    status_.stop_reason.clear();
+    return true;
+  }
+  std::string why;
+  const bool ok = robot_->rearm(why);
   std::lock_guard lock(mutex_);
-  status_.robot_stopped = false;
-  status_.stop_reason.clear();
+  if (ok) {
+    status_.robot_stopped = false;
+    status_.stop_reason.clear();
+    addEvent(elapsed(), "rearmed", "supervisor acknowledged the stop: the robot waits in Ready");
+  } else {
+    addEvent(elapsed(), "rearm-refused", why);
+  }
+  return ok;
+}
+
+bool NavigationLoop::startRobot() {
+  return robot_ && robot_->startPlacement();
+}
+
+void NavigationLoop::killTracker() {
+  source_->stop();
+  std::lock_guard lock(mutex_);
+  addEvent(elapsed(), "source", "tracker killed (simulated tracker failure)");
 }
 
 void NavigationLoop::addEvent(double t, const std::string& kind, const std::string& message) {
@@ -129,7 +179,12 @@ void NavigationLoop::run() {
       silent = batches.empty() && last_batch_s_ >= 0.0 && now - last_batch_s_ > options_.silence_timeout_s;
     }
     for (const auto& [batch, arrived] : batches) process(batch, arrived);
-    supervise(elapsed(), silent);
+    if (robot_) {
+      robot_->setConnected(source_->status().state == tracking::SourceState::Running, elapsed());
+      pollRobot();
+    } else {
+      supervise(elapsed(), silent);
+    }
   }
 }
 
@@ -140,6 +195,26 @@ void NavigationLoop::process(const std::vector<tracking::ToolUpdate>& batch, dou
     frame.transforms[u.name] = FrameTransform{u.to_T_from.matrix(), u.status};
   }
   frame.custom_fields["ArrivalTime"] = std::to_string(arrived_s);
+  if (robot_) {
+    std::optional<Eigen::Isometry3d> tracker_T_patient;
+    for (const auto& u : batch) {
+      if (u.name == options_.robot.patient_transform && u.status == TransformStatus::Ok)
+        tracker_T_patient = u.to_T_from;
+    }
+    const bool visible = !(frame.timestamp >= drill_dropout_start_s_ && frame.timestamp < drill_dropout_end_s_);
+    if (const auto drill = robot_->observeDrill(tracker_T_patient, frame.timestamp, visible)) {
+      try {
+        repository_->setTransform(drill->name, drill->to_T_from, drill->status, drill->timestamp);
+        frame.transforms[drill->name] = FrameTransform{drill->to_T_from.matrix(), drill->status};
+      } catch (const std::exception& e) {
+        std::lock_guard lock(mutex_);
+        addEvent(arrived_s, "robot-error", e.what());
+      }
+    }
+    NavigationStatus robot_status;
+    robot_->fillStatus(robot_status);
+    frame.custom_fields["SupervisorState"] = robot_status.supervisor_state;
+  }
   if (recorder_ && !recorder_->append(frame)) {
     std::lock_guard lock(mutex_);
     if (status_.recorder_error.empty()) {
@@ -147,6 +222,7 @@ void NavigationLoop::process(const std::vector<tracking::ToolUpdate>& batch, dou
       addEvent(arrived_s, "recorder-error", recorder_->lastError());
     }
   }
+  if (robot_) feedRobot(arrived_s, frame.timestamp);
   if (deformation_) {
     try {
       deformation_(*repository_, arrived_s);
@@ -220,11 +296,78 @@ void NavigationLoop::supervise(double now_s, bool silent) {
   }
 }
 
+void NavigationLoop::feedRobot(double arrived_s, double timestamp) {
+  // Sample times onto the loop clock: the newest batch arrived now, older edges are older by their
+  // timestamp difference (a PlusServer stamps in UTC, the simulator from its start).
+  const double offset = arrived_s - timestamp;
+  detail::TrackingFeed feed;
+  auto watch = [&](TransformRepository::Query& query, bool& ok, double& time_s, Eigen::Isometry3d& pose) {
+    const auto r = repository_->evaluate(query);
+    ok = r.ok();
+    time_s = std::isnan(r.timestamp) ? arrived_s : r.timestamp + offset;
+    pose = r.to_T_from;
+    if (!ok && feed.lost.empty())
+      feed.lost = "tracking lost: " + query.from() + "To" + query.to() + " " + statusName(r.status);
+  };
+  watch(robot_patient_, feed.patient_ok, feed.patient_time_s, feed.tracker_T_patient);
+  watch(robot_tool_, feed.tool_ok, feed.tool_time_s, feed.tracker_T_tool);
+  for (auto& query : required_) {
+    const std::string name = query.from() + "To" + query.to();
+    if (name == options_.robot.tool_transform || name == options_.robot.patient_transform) continue;
+    const auto r = repository_->evaluate(query);
+    if (r.ok()) continue;
+    feed.others_ok = false;
+    if (feed.lost.empty()) feed.lost = "tracking lost: " + name + " " + statusName(r.status);
+  }
+  feed.connected = source_->status().state == tracking::SourceState::Running;
+  robot_->feed(std::move(feed), arrived_s);
+}
+
+void NavigationLoop::pollRobot() {
+  const auto log = robot_->transitions();
+  for (; robot_transitions_seen_ < log.size(); ++robot_transitions_seen_) {
+    const auto& t = log[robot_transitions_seen_];
+    if (t.to == "Stopped" || t.to == "Fault") {
+      const std::string reason =
+          (t.tracking.empty() ? std::string() : t.tracking + "; ") + "supervisor " + t.reason + ": " + t.detail;
+      StopHandler handler;
+      {
+        std::lock_guard lock(mutex_);
+        status_.robot_stopped = true;
+        status_.stop_reason = reason;
+        addEvent(t.time_s, "safety-stop",
+                 "robot stopped: " + reason + " (cycle " + std::to_string(t.cycle) + ", " + t.command + ")");
+        handler = stop_handler_;
+      }
+      if (handler) {
+        try {
+          handler(reason);
+        } catch (const std::exception& e) {
+          std::lock_guard lock(mutex_);
+          addEvent(t.time_s, "stop-handler-error", e.what());
+        }
+      }
+    } else {
+      std::lock_guard lock(mutex_);
+      if (t.from == "Stopped" || t.from == "Fault") {
+        status_.robot_stopped = false;
+        status_.stop_reason.clear();
+      }
+      events_.push_back(NavigationEvent{t.time_s, "robot", t.from + " -> " + t.to + " (" + t.detail + ")"});
+    }
+  }
+}
+
 NavigationStatus NavigationLoop::status() const {
   std::lock_guard lock(mutex_);
   NavigationStatus s = status_;
   s.source = source_->status();
+  if (robot_) robot_->fillStatus(s);
   return s;
+}
+
+std::vector<NavigationRobotTransition> NavigationLoop::robotTransitions() const {
+  return robot_ ? robot_->transitions() : std::vector<NavigationRobotTransition>{};
 }
 
 std::vector<NavigationEvent> NavigationLoop::events() const {

@@ -4,12 +4,14 @@
 // scene, on its own threads, every tracking batch recorded crash-safe to a
 // PLUS sequence. Real time: nothing here throws once started; problems
 // become events and status.
+#include <Eigen/Geometry>
 #include <atomic>
 #include <condition_variable>
 #include <cstdint>
 #include <deque>
 #include <filesystem>
 #include <functional>
+#include <limits>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -17,6 +19,7 @@
 #include <vector>
 
 #include "mrsns/core/transform_repository.h"
+#include "mrsns/registration/screw_path.h"
 #include "mrsns/tracking/hologram_streamer.h"
 #include "mrsns/tracking/tracking_source.h"
 
@@ -28,6 +31,10 @@ class Server;
 }
 
 namespace mrsns::workflow {
+
+namespace detail {
+class NavigationRobot;
+}
 
 /// Which tracker to use: "simulated" (the default: patient, probe, stylus
 /// and robot flange markers with tremor and noise), "plus" (a PlusServer or
@@ -56,15 +63,53 @@ std::vector<std::string> simulatedToolNames();
 std::unique_ptr<tracking::TrackingSource> makeTrackingSource(const DeviceOptions& options,
                                                              std::shared_ptr<TransformRepository> repository);
 
+/// A 30 mm path 60 mm in front of the patient reference (plan frame = patient frame): what the robot follows
+/// when no plan is given.
+registration::ScrewPath defaultNavigationPlan();
+
+/// The robot in the loop (paper 001 Fig. 3: tracking -> supervisor -> robot). With "simulated" the loop owns a
+/// robot::SimulatedArm, a robot::ControlLoop and its robot::SafetySupervisor, ticked at control_rate_hz on
+/// their own thread; every tracking batch feeds the supervisor's tracking inputs, so a lost, stale or
+/// disconnected tracker stops the arm through the supervisor (see doc/README.md, "The robot in the loop").
+struct NavigationRobotOptions {
+  std::string robot = "none";  ///< "none" | "simulated"
+  /// The planned path in the plan (CT) frame and the registration plan -> patient reference.
+  registration::ScrewPath plan = defaultNavigationPlan();
+  Eigen::Isometry3d patient_T_plan = Eigen::Isometry3d::Identity();
+  std::string patient_transform = "PatientToTracker";
+  /// The drill marker on the robot flange. The simulated robot's marker is seen by the loop on the
+  /// simulated arm, in every tracking batch, with the batch's timestamp (and recorded with it).
+  std::string tool_transform = "DrillToTracker";
+  double control_rate_hz = 500.0;
+  /// Enable the supervisor and start the placement (approach, align, advance) once tracking is good.
+  bool auto_start = true;
+  double advance_speed_mm_s = 5.0;
+  /// Watchdog of the control thread. The supervisor's own defaults (2 ms, 2 missed cycles) assume a
+  /// real-time kernel; a shared desktop misses cycles under load, and the UR controller stops the arm
+  /// itself when servoJ targets stop arriving, so the loop allows more by default.
+  double max_cycle_time_s = 0.02;
+  std::uint64_t max_missed_cycles = 25;
+};
+
+/// One transition of the robot's safety supervisor (robot::TransitionRecord as text).
+struct NavigationRobotTransition {
+  std::uint64_t cycle = 0;
+  double time_s = 0.0;  ///< loop clock (since start())
+  std::string from, to, reason, command, detail;
+  std::string tracking;  ///< for a stop: what the workflow saw lost ("tracking lost: PatientToTracker INVALID")
+};
+
 struct NavigationOptions {
   DeviceOptions devices;
+  NavigationRobotOptions robot;
   /// Tracking stream recording (.mhd + .raw, crash-safe); empty: none.
   std::filesystem::path recording;
   double sync_interval_s = 0.5;
   /// Transforms the supervisor needs Ok while the robot moves: losing one
   /// stops the robot.
   std::vector<std::string> required_transforms = {"PatientToTracker", "ProbeToTracker"};
-  /// No tracking batch for this long also stops the robot (tracker silent).
+  /// No tracking batch for this long also stops the robot (tracker silent). With a robot this is the
+  /// supervisor's max_tracking_age_s: a pose older than this is stale.
   double silence_timeout_s = 0.25;
   /// Stream holograms to HMD clients on 127.0.0.1:hologram_port (0 picks a
   /// free port) when models are given.
@@ -95,6 +140,30 @@ struct NavigationStatus {
   tracking::SourceStatus source;
   double max_batch_gap_s = 0.0;
   double mean_loop_latency_ms = 0.0;  ///< batch arrival -> processed (record, supervise, stream)
+
+  // The robot (NavigationOptions::robot); with "none" only `robot` is set.
+  std::string robot = "none";
+  bool robot_docked = false;     ///< the simulated arm is placed at the patient (first patient sample)
+  std::string supervisor_state;  ///< robot::SupervisorState name: "Ready", "Advancing", "Stopped", ...
+  std::string supervisor_stop;   ///< robot::StopReason name of the current stop ("PatientNotTracked"), else empty
+  std::string last_transition;   ///< "cycle 812 Advancing -> Stopped (PatientNotTracked: ...) StopJ"
+  std::string guidance_phase;    ///< robot::GuidancePhase name
+  std::uint64_t robot_cycles = 0;
+  std::uint64_t robot_missed_cycles = 0;  ///< control cycles skipped by the real-time thread (load)
+  double arm_speed_rad_s = 0.0;           ///< largest joint speed now
+  double flange_speed_mm_s = 0.0;
+  double depth_mm = 0.0;  ///< commanded drill depth past the entry
+  std::uint64_t motion_commands = 0;
+  std::uint64_t motion_commands_after_stop = 0;  ///< servoJ sent while Stopped/Fault (must stay 0)
+  std::uint64_t robot_stops = 0;
+  /// Last stop: from the first lost or stale tracking sample (its arrival on the loop clock; for a stale
+  /// pose, the moment it became older than the limit; for a disconnection, when the loop saw it) to the
+  /// stop command, in control cycles and ms; -1 / NaN before a stop.
+  std::int64_t stop_latency_cycles = -1;
+  double stop_latency_ms = std::numeric_limits<double>::quiet_NaN();
+  /// Last stop: stop command -> every joint at rest (controller time); NaN until at rest.
+  double time_to_stop_s = std::numeric_limits<double>::quiet_NaN();
+  double stop_time_limit_s = 0.0;  ///< the arm's stopping-time limit
 };
 
 class NavigationLoop {
@@ -122,16 +191,27 @@ class NavigationLoop {
   void start();
   /// Stops the source and the loop, syncs the recording. Idempotent.
   void stop();
-  /// The robot may move again once the required transforms are Ok.
-  void rearm();
+  /// The robot may move again once the required transforms are Ok. With a robot: the supervisor's
+  /// acknowledge (Stopped/Fault -> Ready), refused (false, with an event saying why) while tracking is
+  /// still lost or the arm still moves. The robot then waits in Ready for startRobot().
+  bool rearm();
+  /// Starts (again) the placement along the plan: supervisor Ready -> Aligning. False without a robot,
+  /// before docking, or when the supervisor refuses.
+  bool startRobot();
+  /// Simulated tracker failure: stops the tracking source while the loop and the robot keep running.
+  void killTracker();
 
   [[nodiscard]] NavigationStatus status() const;
   [[nodiscard]] std::vector<NavigationEvent> events() const;
+  /// The supervisor's transition log (empty without a robot).
+  [[nodiscard]] std::vector<NavigationRobotTransition> robotTransitions() const;
 
  private:
   void run();
   void process(const std::vector<tracking::ToolUpdate>& batch, double now_s);
   void supervise(double now_s, bool silent);
+  void feedRobot(double arrived_s, double timestamp);
+  void pollRobot();
   void addEvent(double t, const std::string& kind, const std::string& message);
   double elapsed() const;
 
@@ -145,6 +225,11 @@ class NavigationLoop {
   DeformationHook deformation_;
   StopHandler stop_handler_;
   std::vector<TransformRepository::Query> required_;
+  std::unique_ptr<detail::NavigationRobot> robot_;
+  TransformRepository::Query robot_tool_, robot_patient_;
+  std::size_t robot_transitions_seen_ = 0;
+  double drill_dropout_start_s_ = std::numeric_limits<double>::infinity();
+  double drill_dropout_end_s_ = -std::numeric_limits<double>::infinity();
 
   mutable std::mutex mutex_;  // guards queue_, events_, status_
   std::condition_variable wake_;

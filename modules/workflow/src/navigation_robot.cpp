@@ -1,0 +1,364 @@
+#include "navigation_robot.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include "mrsns/core/error.h"
+#include "mrsns/core/log.h"
+#include "mrsns/core/rigid.h"
+
+namespace mrsns::workflow {
+
+registration::ScrewPath defaultNavigationPlan() {
+  registration::ScrewPath plan;
+  plan.name = "navigation";
+  plan.entry = Eigen::Vector3d(0.0, 0.0, 60.0);
+  plan.target = Eigen::Vector3d(0.0, 0.0, 90.0);
+  return plan;
+}
+
+namespace detail {
+
+namespace {
+
+constexpr std::size_t kCycleRing = 4096;  // 8 s of cycle start times at 500 Hz
+
+bool atRest(const robot::ArmState& arm) {
+  return arm.qd.cwiseAbs().maxCoeff() <= 1e-6;  // the supervisor's acknowledge threshold
+}
+
+}  // namespace
+
+robot::TrackingSnapshot snapshotFromFeed(const TrackingFeed& feed, double now_s) {
+  robot::TrackingSnapshot s;
+  s.connected = feed.connected;
+  s.time_s = now_s;
+  s.drill_tracked = feed.tool_ok && feed.others_ok;
+  s.drill_timestamp_s = std::isnan(feed.tool_time_s) ? now_s : feed.tool_time_s;
+  s.tracker_T_drill = feed.tracker_T_tool;
+  s.patient_tracked = feed.patient_ok;
+  s.patient_timestamp_s = std::isnan(feed.patient_time_s) ? now_s : feed.patient_time_s;
+  s.tracker_T_patient = feed.tracker_T_patient;
+  return s;
+}
+
+NavigationRobot::NavigationRobot(const NavigationRobotOptions& options, double max_tracking_age_s,
+                                 double marker_noise_mm, std::uint64_t seed, std::function<double()> clock)
+    : options_(options),
+      max_age_s_(max_tracking_age_s),
+      marker_noise_mm_(marker_noise_mm),
+      clock_(std::move(clock)),
+      rng_(seed * 2654435761ULL + 7) {
+  if (!(options.control_rate_hz > 0.0 && options.control_rate_hz <= 1000.0)) {
+    throw InvalidArgumentError("navigation robot: control_rate_hz must be in (0, 1000] Hz (UR: 125 or 500), got " +
+                               std::to_string(options.control_rate_hz));
+  }
+  if (!(max_tracking_age_s > 0.0)) {
+    throw InvalidArgumentError("navigation robot: silence_timeout_s (the supervisor's tracking age limit) must be > 0");
+  }
+  if (!(options.advance_speed_mm_s > 0.0)) {
+    throw InvalidArgumentError("navigation robot: advance_speed_mm_s must be > 0");
+  }
+  robot::SimulatedArmOptions arm_options;
+  arm_options.control_period_s = 1.0 / options.control_rate_hz;
+  arm_ = std::make_shared<robot::SimulatedArm>(arm_options);
+
+  // The drill geometry and flange marker of the robot module's test scene.
+  flange_T_marker_.linear() = so3Exp(Eigen::Vector3d(0.0, 0.5, 0.3));
+  flange_T_marker_.translation() << 60, 0, 40;
+  robot::ControlLoopSetup setup;
+  setup.flange_T_marker = flange_T_marker_;
+  setup.flange_T_tip.translation() << 0, 0, 150;
+  setup.plan = options.plan;  // validated by the ControlLoop
+  setup.patient_T_plan = options.patient_T_plan;
+  // base_T_tracker stays identity: with marker feedback the loop locates the patient through the drill
+  // marker, so the robot-tracker calibration does not enter the chain.
+  robot::ControlLoopOptions control;
+  control.marker_feedback = true;
+  control.limits.max_tracking_age_s = max_tracking_age_s;
+  control.limits.max_cycle_time_s = options.max_cycle_time_s;
+  control.limits.max_missed_cycles = options.max_missed_cycles;
+  control.guidance.advance_speed_mm_s = options.advance_speed_mm_s;
+  control_ = std::make_unique<robot::ControlLoop>(arm_, arm_->kinematics(), setup, control);
+  figures_.robot = "simulated";
+  figures_.supervisor_state = robot::toString(control_->supervisor().state());
+  figures_.stop_time_limit_s = arm_->options().stop_time_limit_s;
+}
+
+NavigationRobot::~NavigationRobot() {
+  stop();
+}
+
+void NavigationRobot::dock(const Eigen::Isometry3d& tracker_T_patient) {
+  // The cart is wheeled to the patient: the planned entry lies 45 mm in front of the drill at its start
+  // pose, the planned direction within a few degrees of the drill's (so the approach has work to do).
+  const Eigen::Isometry3d flange_T_tip = control_->guidance().flangeTTip();
+  const Eigen::Isometry3d tip0 = arm_->state().base_T_flange * flange_T_tip;
+  const Eigen::Vector3d direction_base = (tip0.linear() * Eigen::Vector3d(0.08, -0.05, 1.0)).normalized();
+  const Eigen::Vector3d entry_base = tip0.translation() + tip0.linear() * Eigen::Vector3d(8, 5, 45);
+  Eigen::Isometry3d base_T_plan = Eigen::Isometry3d::Identity();
+  base_T_plan.linear() =
+      Eigen::Quaterniond::FromTwoVectors(options_.plan.direction(), direction_base).toRotationMatrix();
+  base_T_plan.translation() = entry_base - base_T_plan.linear() * options_.plan.entry;
+  tracker_T_base_ = tracker_T_patient * options_.patient_T_plan * base_T_plan.inverse();
+  docked_ = true;
+  thread_ = std::thread([this] { controlThread(); });
+}
+
+std::optional<tracking::ToolUpdate> NavigationRobot::observeDrill(
+    const std::optional<Eigen::Isometry3d>& tracker_T_patient, double timestamp, bool visible) {
+  if (stopping_) return std::nullopt;
+  if (!docked_) {
+    if (!tracker_T_patient) return std::nullopt;
+    dock(*tracker_T_patient);
+  }
+  Eigen::Isometry3d tracker_T_marker = tracker_T_base_ * arm_->state().base_T_flange * flange_T_marker_;
+  if (marker_noise_mm_ > 0.0) {
+    // The simulated tracker's noise model: isotropic, per-axis sigma = rms / sqrt(3).
+    std::normal_distribution<double> n(0.0, marker_noise_mm_ / std::sqrt(3.0));
+    tracker_T_marker.translation() += Eigen::Vector3d(n(rng_), n(rng_), n(rng_));
+  }
+  tracking::ToolUpdate u;
+  u.name = options_.tool_transform;
+  u.to_T_from = tracker_T_marker;
+  u.status = visible ? TransformStatus::Ok : TransformStatus::Invalid;
+  u.timestamp = timestamp;
+  return u;
+}
+
+void NavigationRobot::feed(TrackingFeed feed, double now_s) {
+  std::lock_guard lock(feed_mutex_);
+  feed.connected = feed.connected && feed_.connected;
+  const bool lost = !feed.connected || !feed.tool_ok || !feed.patient_ok || !feed.others_ok;
+  if (!lost) {
+    loss_onset_s_ = std::numeric_limits<double>::quiet_NaN();
+  } else if (std::isnan(loss_onset_s_)) {
+    loss_onset_s_ = now_s;
+  }
+  feed_ = std::move(feed);
+}
+
+void NavigationRobot::setConnected(bool connected, double now_s) {
+  std::lock_guard lock(feed_mutex_);
+  if (feed_.connected == connected) return;
+  feed_.connected = connected;
+  if (!connected) {
+    if (std::isnan(loss_onset_s_)) loss_onset_s_ = now_s;
+    if (feed_.lost.empty()) feed_.lost = "tracker disconnected";
+  }
+}
+
+bool NavigationRobot::trackingGood(const TrackingFeed& feed, double now_s) const {
+  return feed.connected && feed.tool_ok && feed.patient_ok && feed.others_ok &&
+         now_s - feed.tool_time_s <= max_age_s_ && now_s - feed.patient_time_s <= max_age_s_;
+}
+
+void NavigationRobot::controlThread() {
+  cycle_starts_.assign(kCycleRing, std::numeric_limits<double>::quiet_NaN());
+  arm_origin_s_ = clock_();
+  control_->runRealTime(
+      [this] {
+        cycle_start_s_ = clock_();
+        {
+          std::lock_guard lock(feed_mutex_);
+          cycle_feed_ = feed_;
+          cycle_onset_s_ = loss_onset_s_;
+        }
+        return snapshotFromFeed(cycle_feed_, cycle_start_s_);
+      },
+      quit_, [this](const robot::CycleReport& report) { onCycle(report); });
+  // Leaving: the arm must not keep following a target nobody updates.
+  arm_->stopJ(control_->supervisor().limits().stop_deceleration_rad_s2);
+}
+
+void NavigationRobot::onCycle(const robot::CycleReport& report) {
+  const double period = control_->periodS();
+  const double previous_start = cycle_starts_[(report.cycle + kCycleRing - 1) % kCycleRing];
+  cycle_starts_[report.cycle % kCycleRing] = cycle_start_s_;
+  std::uint64_t missed = 0;
+  if (!std::isnan(previous_start) && cycle_start_s_ - previous_start > 1.5 * period) {
+    missed = static_cast<std::uint64_t>(std::llround((cycle_start_s_ - previous_start) / period)) - 1;
+  }
+
+  std::int64_t latency_cycles = -1;
+  double latency_ms = std::numeric_limits<double>::quiet_NaN();
+  if (report.stop_sent != robot::StopCommand::None) {
+    // When the loss began: a stale pose became stale at its time plus the age limit; otherwise the first
+    // batch that showed the loss (or when the loop saw the source go away).
+    double onset = cycle_onset_s_;
+    if (report.decision.reason == robot::StopReason::ToolStale) onset = cycle_feed_.tool_time_s + max_age_s_;
+    if (report.decision.reason == robot::StopReason::PatientStale) onset = cycle_feed_.patient_time_s + max_age_s_;
+    if (std::isnan(onset)) onset = cycle_start_s_;  // not a tracking stop: counted from this cycle
+    latency_ms = 1e3 * (cycle_start_s_ - onset);
+    latency_cycles = 0;
+    for (std::uint64_t k = 0; k < kCycleRing && k < report.cycle; ++k) {
+      const double t = cycle_starts_[(report.cycle - k) % kCycleRing];
+      if (std::isnan(t) || t < onset) break;
+      ++latency_cycles;
+    }
+    stop_arm_time_s_ = arm_->state().time_s;
+  }
+
+  // Operator requests run here, between two cycles, on the only thread that touches the ControlLoop.
+  std::deque<std::packaged_task<bool(robot::ControlLoop&)>> requests;
+  {
+    std::lock_guard lock(request_mutex_);
+    requests.swap(requests_);
+  }
+  for (auto& r : requests) r(*control_);
+  if (options_.auto_start && !auto_started_ && trackingGood(cycle_feed_, cycle_start_s_) &&
+      control_->supervisor().state() == robot::SupervisorState::Disabled) {
+    auto_started_ = true;
+    control_->enable();
+    control_->startPlacement();
+  }
+
+  // The simulated controller runs on the wall clock: cycles this thread missed pass for the arm too.
+  const auto due = static_cast<std::uint64_t>(std::max(0.0, std::floor((clock_() - arm_origin_s_) / period)));
+  const std::uint64_t steps = std::clamp<std::uint64_t>(due > arm_steps_ ? due - arm_steps_ : 1, 1, 25);
+  for (std::uint64_t k = 0; k < steps; ++k) arm_->step();
+  arm_steps_ = std::max(due, arm_steps_ + steps);
+  const robot::ArmState arm = arm_->state();
+  double time_to_stop = std::numeric_limits<double>::quiet_NaN();
+  if (!std::isnan(stop_arm_time_s_) && atRest(arm)) {
+    time_to_stop = arm.time_s - stop_arm_time_s_;
+    stop_arm_time_s_ = std::numeric_limits<double>::quiet_NaN();
+  }
+
+  const auto& supervisor = control_->supervisor();
+  const auto& records = supervisor.transitions();
+  std::lock_guard lock(status_mutex_);
+  for (std::size_t i = log_.size(); i < records.size(); ++i) {
+    const auto& r = records[i];
+    NavigationRobotTransition t;
+    t.cycle = r.cycle;
+    const double start = cycle_starts_[r.cycle % kCycleRing];
+    t.time_s = std::isnan(start) ? cycle_start_s_ : start;
+    t.from = robot::toString(r.from);
+    t.to = robot::toString(r.to);
+    t.reason = robot::toString(r.reason);
+    t.command = robot::toString(r.command);
+    t.detail = r.detail;
+    if (r.to == robot::SupervisorState::Stopped || r.to == robot::SupervisorState::Fault) t.tracking = cycle_feed_.lost;
+    figures_.last_transition = "cycle " + std::to_string(t.cycle) + " " + t.from + " -> " + t.to + " (" + t.reason +
+                               ": " + t.detail + ") " + t.command;
+    log_.push_back(std::move(t));
+  }
+  auto& f = figures_;
+  f.robot_docked = true;
+  f.supervisor_state = robot::toString(supervisor.state());
+  f.supervisor_stop =
+      supervisor.lastStopReason() == robot::StopReason::None ? "" : robot::toString(supervisor.lastStopReason());
+  f.guidance_phase = robot::toString(control_->guidance().phase());
+  f.robot_cycles = report.cycle;
+  f.robot_missed_cycles += missed;
+  f.arm_speed_rad_s = arm.qd.cwiseAbs().maxCoeff();
+  f.flange_speed_mm_s = arm.flange_twist.head<3>().norm();
+  f.depth_mm = report.guidance.depth_mm;
+  if (report.motion_sent) {
+    ++f.motion_commands;
+    if (report.decision.state == robot::SupervisorState::Stopped ||
+        report.decision.state == robot::SupervisorState::Fault) {
+      ++f.motion_commands_after_stop;
+    }
+  }
+  if (latency_cycles >= 0) {
+    ++f.robot_stops;
+    f.stop_latency_cycles = latency_cycles;
+    f.stop_latency_ms = latency_ms;
+    f.time_to_stop_s = std::numeric_limits<double>::quiet_NaN();
+  }
+  if (!std::isnan(time_to_stop)) f.time_to_stop_s = time_to_stop;
+}
+
+bool NavigationRobot::post(std::function<bool(robot::ControlLoop&)> request, std::string& why) {
+  if (!docked_ || stopping_) {
+    why = docked_ ? "the robot's control loop has stopped" : "the robot is not docked yet (no patient sample so far)";
+    return false;
+  }
+  std::packaged_task<bool(robot::ControlLoop&)> task(std::move(request));
+  auto result = task.get_future();
+  {
+    std::lock_guard lock(request_mutex_);
+    requests_.push_back(std::move(task));
+  }
+  if (result.wait_for(std::chrono::seconds(2)) != std::future_status::ready) {
+    why = "the robot's control loop did not answer within 2 s";
+    return false;
+  }
+  try {
+    return result.get();
+  } catch (const std::exception&) {
+    why = "the robot's control loop stopped before answering";
+    return false;
+  }
+}
+
+bool NavigationRobot::rearm(std::string& why) {
+  {
+    std::lock_guard lock(feed_mutex_);
+    if (docked_ && !trackingGood(feed_, clock_())) {
+      why = "tracking is still lost (" + (feed_.lost.empty() ? std::string("stale poses") : feed_.lost) +
+            "): restore it, then re-arm";
+      return false;
+    }
+  }
+  if (!post([](robot::ControlLoop& c) { return c.acknowledge(); }, why)) {
+    if (why.empty()) {
+      why = "the supervisor refused to acknowledge: it is not stopped, or the arm still moves (state " +
+            std::string(robot::toString(control_->supervisor().state())) + ")";
+    }
+    return false;
+  }
+  return true;
+}
+
+bool NavigationRobot::startPlacement() {
+  std::string why;
+  return post(
+      [](robot::ControlLoop& c) {
+        if (c.supervisor().state() == robot::SupervisorState::Disabled) c.enable();
+        return c.startPlacement();
+      },
+      why);
+}
+
+void NavigationRobot::stop() {
+  stopping_ = true;
+  quit_ = true;
+  if (thread_.joinable()) thread_.join();
+  std::lock_guard lock(request_mutex_);
+  requests_.clear();
+}
+
+void NavigationRobot::fillStatus(NavigationStatus& s) const {
+  std::lock_guard lock(status_mutex_);
+  const auto& f = figures_;
+  s.robot = f.robot;
+  s.robot_docked = f.robot_docked;
+  s.supervisor_state = f.supervisor_state;
+  s.supervisor_stop = f.supervisor_stop;
+  s.last_transition = f.last_transition;
+  s.guidance_phase = f.guidance_phase;
+  s.robot_cycles = f.robot_cycles;
+  s.robot_missed_cycles = f.robot_missed_cycles;
+  s.arm_speed_rad_s = f.arm_speed_rad_s;
+  s.flange_speed_mm_s = f.flange_speed_mm_s;
+  s.depth_mm = f.depth_mm;
+  s.motion_commands = f.motion_commands;
+  s.motion_commands_after_stop = f.motion_commands_after_stop;
+  s.robot_stops = f.robot_stops;
+  s.stop_latency_cycles = f.stop_latency_cycles;
+  s.stop_latency_ms = f.stop_latency_ms;
+  s.time_to_stop_s = f.time_to_stop_s;
+  s.stop_time_limit_s = f.stop_time_limit_s;
+}
+
+std::vector<NavigationRobotTransition> NavigationRobot::transitions() const {
+  std::lock_guard lock(status_mutex_);
+  return log_;
+}
+
+}  // namespace detail
+}  // namespace mrsns::workflow
