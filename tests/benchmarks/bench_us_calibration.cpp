@@ -46,6 +46,26 @@ void BM_CalibrationFromFiles(benchmark::State& state) {
 }
 BENCHMARK(BM_CalibrationFromFiles)->Unit(benchmark::kMillisecond)->UseRealTime();
 
+// What `mrsns-cli calibrate-us` does by default: the same from the files,
+// plus the tracker lag estimated from the calibration sweep (one solve per
+// 20 ms step over +-1 s) and applied to both sequences.
+void BM_CalibrationWithLagEstimateFromFiles(benchmark::State& state) {
+  if (!haveData(state)) return;
+  mrsns::ultrasound::TrackerLagOptions lag;
+  lag.estimate = true;
+  lag.fall_back_to_zero = true;
+  for (auto _ : state) {
+    const auto config = mrsns::io::readDeviceSet(kDir / "PlusDeviceSet_fCal_Sim_SpatialCalibration_1.2.xml");
+    const auto calibration = mrsns::io::readSequence(kDir / "fCal_Test_Calibration_3NWires.igs.mha");
+    const auto validation = mrsns::io::readSequence(kDir / "fCal_Test_Validation_3NWires.igs.mha");
+    const auto run = mrsns::ultrasound::calibrateProbe(config, calibration, validation, {}, lag);
+    benchmark::DoNotOptimize(run.result.probe_T_image);
+    state.counters["validation_mm"] = run.validation_errors.reprojection_3d_mean_mm;
+    state.counters["lag_ms"] = run.tracker_lag.lag_s * 1e3;
+  }
+}
+BENCHMARK(BM_CalibrationWithLagEstimateFromFiles)->Unit(benchmark::kMillisecond)->UseRealTime();
+
 // Segmentation and calibration on sequences already in memory.
 void BM_CalibrationInMemory(benchmark::State& state) {
   if (!haveData(state)) return;

@@ -43,24 +43,36 @@ TEST(CliUltrasound, CalibrateUsOnPlusRecordings) {
   EXPECT_DOUBLE_EQ(j["image_to_probe"][15].get<double>(), 1.0);
   // Row-major: row 0 column 3 is the x translation (PLUS: 11.16 mm).
   EXPECT_NEAR(j["image_to_probe"][3].get<double>(), 11.2, 2.0);
-  EXPECT_LE(j["validation"]["reprojection_3d_mm"]["mean"].get<double>(), 1.20);
+  // The default estimates the recording's ~485 ms tracker lag from the
+  // calibration sweep and beats PLUS's 1.247 mm validation figure by far
+  // (module test: 0.54 mm); PLUS's matrix judged on the same lag-paired
+  // frames comes close to it, so the comparison is like for like.
+  EXPECT_TRUE(j["tracker_lag_estimated"].get<bool>());
+  EXPECT_FALSE(j.contains("tracker_lag_note"));
+  EXPECT_LE(j["validation"]["reprojection_3d_mm"]["mean"].get<double>(), 0.75);
   EXPECT_GT(j["validation"]["reprojection_3d_mm"]["std"].get<double>(), 0.0);
-  EXPECT_LT(j["calibration"]["reprojection_3d_mm"]["mean"].get<double>(), 1.25);
+  EXPECT_LT(j["calibration"]["reprojection_3d_mm"]["mean"].get<double>(), 0.6);
   EXPECT_GE(j["calibration"]["frames_used"].get<int>(), 160);
   EXPECT_TRUE(j["calibration"]["frames_rejected"].is_array());
   EXPECT_EQ(j["calibration"]["segmentation"]["total"].get<int>(), 188);
   EXPECT_EQ(j["validation"]["reprojection_2d_px"].size(), 9u);
-  EXPECT_LT(j["reference"]["max_corner_distance_mm"].get<double>(), 5.0);
+  EXPECT_LT(j["reference"]["validation"]["reprojection_3d_mm"]["mean"].get<double>(), 0.75);
+  // The lag-free matrix differs from PLUS's lag-biased one by ~2 mm at the far corners.
+  EXPECT_LT(j["reference"]["max_corner_distance_mm"].get<double>(), 3.0);
   const auto written = readText(out_config);
   EXPECT_NE(written.find("From=\"Image\" To=\"Probe\""), std::string::npos);
   EXPECT_NE(written.find("PhantomDefinition"), std::string::npos);
 
-  // PLUS's criterion lands within 1 mm of PLUS's ImageToProbe at the corners.
+  // Without the lag, as PLUS's fCal calibrates, the result lands within 1 mm
+  // of PLUS's ImageToProbe at the corners.
   const auto m =
       runCli({"calibrate-us", "--config", config.string(), "--calibration", calibration.string(), "--validation",
-              validation.string(), "--reference-results", results.string(), "--objective", "middle-wire", "--json"});
+              validation.string(), "--reference-results", results.string(), "--tracker-lag-ms", "0", "--json"});
   ASSERT_EQ(m.exit_code, 0) << m.err;
-  EXPECT_LT(nlohmann::json::parse(m.out)["reference"]["max_corner_distance_mm"].get<double>(), 1.0);
+  const auto mj = nlohmann::json::parse(m.out);
+  EXPECT_LT(mj["reference"]["max_corner_distance_mm"].get<double>(), 1.0);
+  EXPECT_FALSE(mj["tracker_lag_estimated"].get<bool>());
+  EXPECT_EQ(mj["objective"], "middle-wire");
 }
 
 // The lag estimated from the calibration sweep, the configuration written

@@ -15,8 +15,8 @@ namespace mrsns::test {
 struct PlusReference {
   Eigen::Matrix4d image_to_probe = Eigen::Matrix4d::Identity();
   double validation_mean_mm = 0.0, validation_std_mm = 0.0, calibration_mean_mm = 0.0, calibration_std_mm = 0.0;
-  /// Validation frame index -> its 9 wire points (px), when PLUS segmented it.
-  std::map<int, std::vector<Eigen::Vector2d>> validation_points;
+  /// Validation (calibration) frame index -> its 9 wire points (px), when PLUS segmented it.
+  std::map<int, std::vector<Eigen::Vector2d>> validation_points, calibration_points;
 };
 
 inline PlusReference readPlusReference(const std::filesystem::path& path) {
@@ -33,16 +33,20 @@ inline PlusReference readPlusReference(const std::filesystem::path& path) {
   ref.validation_std_mm = stats.attribute("ValidationStdDevMm").as_double();
   ref.calibration_mean_mm = stats.attribute("CalibrationMeanMm").as_double();
   ref.calibration_std_mm = stats.attribute("CalibrationStdDevMm").as_double();
-  for (const auto frame : root.child("ErrorReport").child("ValidationData").children("Frame")) {
-    std::vector<Eigen::Vector2d> points;
-    for (const auto p : frame.child("SegmentedPoints").children("Point")) {
-      std::istringstream s(p.attribute("Position").value());
-      double x = 0, y = 0;
-      s >> x >> y;
-      points.emplace_back(x, y);
+  const auto readPoints = [&](const char* element, std::map<int, std::vector<Eigen::Vector2d>>& out) {
+    for (const auto frame : root.child("ErrorReport").child(element).children("Frame")) {
+      std::vector<Eigen::Vector2d> points;
+      for (const auto p : frame.child("SegmentedPoints").children("Point")) {
+        std::istringstream s(p.attribute("Position").value());
+        double x = 0, y = 0;
+        s >> x >> y;
+        points.emplace_back(x, y);
+      }
+      if (!points.empty()) out[frame.attribute("Index").as_int()] = points;
     }
-    if (!points.empty()) ref.validation_points[frame.attribute("Index").as_int()] = points;
-  }
+  };
+  readPoints("ValidationData", ref.validation_points);
+  readPoints("CalibrationData", ref.calibration_points);
   return ref;
 }
 

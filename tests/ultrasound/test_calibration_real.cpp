@@ -3,7 +3,11 @@
 #include <gtest/gtest.h>
 
 #include <cstdio>
+#include <map>
+#include <random>
 
+#include "mrsns/core/error.h"
+#include "mrsns/core/frame_poses.h"
 #include "mrsns/io/device_set.h"
 #include "mrsns/io/sequence_file.h"
 #include "mrsns/ultrasound/probe_calibration.h"
@@ -96,11 +100,13 @@ TEST(SpatialCalibrationReal, PlusMatrixOnOurSegmentationReproducesPlusFigure) {
   EXPECT_NEAR(plus_on_ours.reprojection_3d_std_mm, data.reference.validation_std_mm, 0.1);
 }
 
-// The default (distance of every dot to its wire) beats PLUS's validation error.
+// Without a lag, the distance of every dot to its wire beats PLUS's validation error.
 TEST(SpatialCalibrationReal, DistanceToWiresBeatsPlusOnValidation) {
   MRSNS_REQUIRE_PLUS_DATA(data);
   const auto& s = segmented(data);
-  const auto r = calibrateSpatial(s.calibration.frames, s.patterns, s.reference_T_phantom);
+  SpatialCalibrationOptions options;
+  options.objective = CalibrationObjective::DistanceToWires;
+  const auto r = calibrateSpatial(s.calibration.frames, s.patterns, s.reference_T_phantom, options);
   const auto validation =
       evaluateSpatialCalibration(r.probe_T_image, s.validation.frames, s.patterns, s.reference_T_phantom, s.names);
   printRun("distance-to-wires", r, validation, data);
@@ -155,6 +161,102 @@ TEST(SpatialCalibrationReal, EstimatedTrackerLagHalvesTheValidationError) {
   EXPECT_LT(run.validation_errors.reprojection_3d_mean_mm, 0.5 * data.reference.validation_mean_mm + 0.1);
   EXPECT_LT(run.result.calibration.reprojection_3d_mean_mm, data.reference.calibration_mean_mm);
   EXPECT_GE(run.validation_frames_paired, 85u);
+}
+
+// On PLUS's own segmented points (its results file), the default criterion
+// reproduces PLUS's ImageToProbe: the calibration algorithm is PLUS's, the
+// remaining differences come from the segmentation.
+TEST(SpatialCalibrationReal, DefaultCriterionOnPlusPointsReproducesPlusMatrix) {
+  MRSNS_REQUIRE_PLUS_DATA(data);
+  const auto& s = segmented(data);
+  std::vector<CalibrationFrame> frames;
+  for (auto f : s.calibration.frames) {
+    const auto it = data.reference.calibration_points.find(static_cast<int>(f.frame_index));
+    if (it == data.reference.calibration_points.end() || it->second.size() != 9) continue;
+    f.wire_points_px = it->second;
+    frames.push_back(f);
+  }
+  ASSERT_GE(frames.size(), 170u);
+  const auto r = calibrateSpatial(frames, s.patterns, s.reference_T_phantom);
+  const double corners = worstCornerDistance(r.probe_T_image, data.reference.image_to_probe, data.calibration);
+  std::printf("middle-wire on PLUS's %zu calibration frames: corners %.3f mm from PLUS's ImageToProbe\n", frames.size(),
+              corners);
+  // PLUS rounds its matrix to 6 digits and refines differently: a tenth of
+  // a millimetre at 60 mm from the transducer.
+  EXPECT_LT(corners, 0.2);
+  EXPECT_NEAR(r.calibration.reprojection_3d_mean_mm, data.reference.calibration_mean_mm, 0.02);
+}
+
+// Why the lag-corrected calibration sits ~2 mm from PLUS's matrix: frames
+// rendered from the lag-corrected ImageToProbe along the recorded probe
+// trajectory with a lag of the estimated size (noise model: 0.3 px Gaussian
+// per dot coordinate, poses exact), then calibrated without the lag as
+// PLUS does, land well over a millimetre from the truth and within a
+// millimetre of PLUS's published matrix. PLUS's matrix is what the lag
+// makes of the lag-free one; the corner goal "within 1 mm of PLUS" asks for
+// that bias.
+TEST(SpatialCalibrationReal, TheLagExplainsPlusMatrix) {
+  MRSNS_REQUIRE_PLUS_DATA(data);
+  const auto& s = segmented(data);
+  std::vector<double> times;
+  for (const auto& f : data.calibration.frames) times.push_back(f.timestamp);
+  const auto poses = extractFramePoses(data.calibration.frames, "ProbeToReference").poses;
+  TrackerLagOptions lag_options;
+  lag_options.estimate = true;
+  const SpatialCalibrationOptions options;  // middle-wire points
+  const auto lag =
+      estimateTrackerLag(s.calibration.frames, times, poses, s.patterns, s.reference_T_phantom, options, lag_options);
+  const auto lagged = pairWithTrackerLag(s.calibration.frames, times, poses, lag.lag_s);
+  const Eigen::Matrix4d truth = calibrateSpatial(lagged, s.patterns, s.reference_T_phantom, options).probe_T_image;
+  const Eigen::Matrix4d image_T_probe = truth.inverse();
+
+  std::map<std::size_t, Eigen::Isometry3d> true_pose;
+  for (const auto& f : lagged) true_pose[f.frame_index] = f.reference_T_probe;
+  std::mt19937 rng(7);
+  std::normal_distribution<double> noise(0.0, 0.3);
+  std::vector<CalibrationFrame> rendered;  // paired with the recorded (lagging) pose
+  for (auto f : s.calibration.frames) {
+    const auto it = true_pose.find(f.frame_index);
+    if (it == true_pose.end()) continue;
+    const Eigen::Matrix4d image_T_phantom = image_T_probe * (it->second.inverse() * s.reference_T_phantom).matrix();
+    for (std::size_t k = 0; k < s.patterns.size(); ++k) {
+      for (std::size_t j = 0; j < 3; ++j) {
+        const Eigen::Vector3d a = (image_T_phantom * s.patterns[k].front[j].homogeneous()).head<3>();
+        const Eigen::Vector3d b =
+            (image_T_phantom * (s.patterns[k].front[j] + s.patterns[k].direction[j]).homogeneous()).head<3>();
+        const Eigen::Vector3d hit = a - a.z() / (b.z() - a.z()) * (b - a);
+        f.wire_points_px[3 * k + j] = hit.head<2>() + Eigen::Vector2d(noise(rng), noise(rng));
+      }
+    }
+    rendered.push_back(f);
+  }
+  const Eigen::Matrix4d naive = calibrateSpatial(rendered, s.patterns, s.reference_T_phantom, options).probe_T_image;
+  const double naive_to_truth = worstCornerDistance(naive, truth, data.calibration);
+  const double naive_to_plus = worstCornerDistance(naive, data.reference.image_to_probe, data.calibration);
+  const double truth_to_plus = worstCornerDistance(truth, data.reference.image_to_probe, data.calibration);
+  std::printf(
+      "lag %.1f ms: lag-naive calibration of rendered frames is %.2f mm from the truth and %.2f mm from "
+      "PLUS's matrix (truth to PLUS %.2f mm)\n",
+      lag.lag_s * 1e3, naive_to_truth, naive_to_plus, truth_to_plus);
+  EXPECT_GT(naive_to_truth, 1.2);
+  EXPECT_LT(naive_to_plus, 1.0);
+  EXPECT_LT(naive_to_plus, 0.5 * truth_to_plus);
+}
+
+// A search range that does not contain the lag: refused, or (the CLI's
+// default) calibrated without a lag and said so.
+TEST(SpatialCalibrationReal, LagSearchThatFailsFallsBackToNoLagWhenAsked) {
+  MRSNS_REQUIRE_PLUS_DATA(data);
+  TrackerLagOptions lag;
+  lag.estimate = true;
+  lag.search_half_range_s = 0.2;  // the recording's lag is ~0.49 s
+  EXPECT_THROW((void)calibrateProbe(data.config, data.calibration, data.validation, {}, lag), ComputationError);
+  lag.fall_back_to_zero = true;
+  const auto run = calibrateProbe(data.config, data.calibration, data.validation, {}, lag);
+  EXPECT_FALSE(run.tracker_lag.estimated);
+  EXPECT_EQ(run.tracker_lag.lag_s, 0.0);
+  EXPECT_NE(run.tracker_lag.note.find("edge of the search range"), std::string::npos) << run.tracker_lag.note;
+  EXPECT_EQ(run.validation_paired.size(), run.validation.frames.size());
 }
 
 }  // namespace

@@ -140,8 +140,12 @@ TEST(Steps, UltrasoundCalibrationsOnThePlusRecording) {
   const auto spatial = runStep(session, "us-spatial-calibration", {}, log.context());
   ASSERT_TRUE(spatial.ok) << spatial.summary;
   log.expectMonotoneToOne();
-  // PLUS's own result on these files: validation 1.25 +/- 0.49 mm.
-  EXPECT_LT(spatial.figures["validation"]["reprojection_3d_mean_mm"].get<double>(), 1.6);
+  // PLUS's own result on these files: validation 1.25 +/- 0.49 mm without a
+  // lag; the step estimates the recording's ~0.49 s lag by default
+  // (ultrasound module test: 0.54 mm at that lag).
+  EXPECT_TRUE(spatial.figures["tracker_lag_estimated"].get<bool>());
+  EXPECT_NEAR(spatial.figures["tracker_lag_ms"].get<double>(), 490.0, 79.0);
+  EXPECT_LT(spatial.figures["validation"]["reprojection_3d_mean_mm"].get<double>(), 0.75);
   ASSERT_EQ(spatial.outputs.size(), 1u);
   EXPECT_TRUE(std::filesystem::exists(session.resolve(spatial.outputs[0])));
   const auto temporal = runStep(session, "us-temporal-calibration", {}, {});

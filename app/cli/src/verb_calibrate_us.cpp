@@ -21,8 +21,8 @@ struct CalibrateUsOptions {
   std::string validation;
   std::string output_config;
   std::string reference_results;
-  std::string objective = "distance-to-wires";
-  std::string tracker_lag = "0";  // ms, or "auto"
+  std::string objective = "middle-wire";
+  std::string tracker_lag = "auto";  // ms, or "auto"
   double lag_range_ms = 1000.0;
 };
 
@@ -74,6 +74,9 @@ Report run(const CalibrateUsOptions& options) {
   if (options.tracker_lag == "auto") {
     lag.estimate = true;
     lag.search_half_range_s = options.lag_range_ms * 1e-3;
+    // The default: a recording that does not pin the lag down is calibrated
+    // without one, and the JSON says why.
+    lag.fall_back_to_zero = true;
   } else {
     try {
       std::size_t used = 0;
@@ -114,6 +117,7 @@ Report run(const CalibrateUsOptions& options) {
     j["tracker_lag_curve"] = curve;
     j["tracker_lag_curvature_mm_per_s2"] = run.tracker_lag.curvature_mm_per_s2;
   }
+  if (!run.tracker_lag.note.empty()) j["tracker_lag_note"] = run.tracker_lag.note;
   j["seconds"] = run.seconds;
 
   std::ostringstream text;
@@ -141,9 +145,10 @@ Report run(const CalibrateUsOptions& options) {
       worst = std::max(worst, d);
     }
     // The reference matrix judged by the same evaluator on the same segmented
-    // frames, so the two calibrations are compared like for like.
+    // frames with the same pose pairing (lag), so the two calibrations are
+    // compared like for like.
     const auto ref_validation = ultrasound::evaluateSpatialCalibration(
-        ref, run.validation.frames, ultrasound::nwireGeometry(*config.phantom), ultrasound::phantomToReference(config),
+        ref, run.validation_paired, ultrasound::nwireGeometry(*config.phantom), ultrasound::phantomToReference(config),
         ultrasound::wireNames(*config.phantom));
     j["reference"] = Json{{"results", options.reference_results},
                           {"image_to_probe", matrixJson(ref)},
@@ -183,14 +188,15 @@ void registerCalibrateUsVerb(CLI::App& app, GlobalOptions& options, VerbList& ve
                   "a PLUS ProbeCalibration results file: distances of the mapped image corners to its ImageToProbe");
   sub->add_option("--tracker-lag-ms", opts->tracker_lag,
                   "tracker lag applied to both sequences (PLUS TrackerLagSec convention, ms), or 'auto' to estimate it "
-                  "from the calibration sequence")
-      ->default_val("0");
+                  "from the calibration sequence (falls back to 0 when the sweep does not pin it down); 0 calibrates "
+                  "as PLUS's fCal does, without a lag")
+      ->default_val("auto");
   sub->add_option("--tracker-lag-range-ms", opts->lag_range_ms, "half width of the lag search with 'auto' (ms)")
       ->default_val(1000.0)
       ->check(CLI::PositiveNumber);
   sub->add_option("--objective", opts->objective,
-                  "least-squares criterion: distance of every dot to its wire, or PLUS's middle-wire points")
-      ->check(CLI::IsMember({"distance-to-wires", "middle-wire"}))
+                  "least-squares criterion: PLUS's middle-wire points, or the distance of every dot to its wire")
+      ->check(CLI::IsMember({"middle-wire", "distance-to-wires"}))
       ->capture_default_str();
   addJsonFlag(*sub, options);
   verbs.emplace_back(sub, [opts] { return run(*opts); });

@@ -161,9 +161,16 @@ ProbeCalibrationRun calibrateProbe(const io::DeviceSetConfiguration& config, con
   run.calibration = segmentCalibrationSequence(calibration, phantom, seg_options);
   run.validation = segmentCalibrationSequence(validation, phantom, seg_options);
   const SequenceTiming calibration_timing = timingOf(calibration);
-  run.tracker_lag =
-      estimateTrackerLag(run.calibration.frames, calibration_timing.frame_times_s, calibration_timing.reference_T_probe,
-                         patterns, reference_T_phantom, options, lag);
+  try {
+    run.tracker_lag =
+        estimateTrackerLag(run.calibration.frames, calibration_timing.frame_times_s,
+                           calibration_timing.reference_T_probe, patterns, reference_T_phantom, options, lag);
+  } catch (const ComputationError& e) {
+    if (!lag.estimate || !lag.fall_back_to_zero) throw;
+    run.tracker_lag = TrackerLagEstimate{};
+    run.tracker_lag.note = std::string("no tracker lag applied: ") + e.what();
+    logger()->warn("{}", run.tracker_lag.note);
+  }
   const auto calibration_frames = shifted(run.calibration, calibration_timing, run.tracker_lag.lag_s);
   const auto validation_frames = shifted(run.validation, timingOf(validation), run.tracker_lag.lag_s);
   run.calibration_frames_paired = calibration_frames.size();
@@ -184,6 +191,7 @@ ProbeCalibrationRun calibrateProbe(const io::DeviceSetConfiguration& config, con
   }
   run.validation_errors = evaluateSpatialCalibration(run.result.probe_T_image, validation_frames, patterns,
                                                      reference_T_phantom, wireNames(phantom));
+  run.validation_paired = validation_frames;
   run.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return run;
 }

@@ -65,9 +65,22 @@ Json errorFigures(const ultrasound::CalibrationErrorReport& e) {
 StepResult runUsSpatialCalibration(Session& session, const Json& params, const StepContext& context) {
   const Params p("us-spatial-calibration", params, {"config", "calibration", "validation", "tracker_lag_ms"});
   const Inputs in = readInputs(p, context);
+  // tracker_lag_ms: a number (ms, 0 calibrates as PLUS's fCal does) or
+  // "auto" (the default): estimated from the calibration sweep, none when
+  // the sweep does not pin it down.
   ultrasound::TrackerLagOptions lag;
-  lag.lag_s = p.number("tracker_lag_ms", 0.0) * 1e-3;
-  context.report(0.3, "segmenting the N-wires and calibrating");
+  const bool auto_lag = !params.contains("tracker_lag_ms") || params["tracker_lag_ms"].is_string();
+  if (auto_lag) {
+    if (p.text("tracker_lag_ms", "auto") != "auto") {
+      throw InvalidArgumentError("us-spatial-calibration: tracker_lag_ms must be a number of milliseconds or \"auto\"");
+    }
+    lag.estimate = true;
+    lag.fall_back_to_zero = true;
+  } else {
+    lag.lag_s = p.number("tracker_lag_ms", 0.0) * 1e-3;
+  }
+  context.report(0.3, auto_lag ? "segmenting the N-wires, estimating the tracker lag and calibrating"
+                               : "segmenting the N-wires and calibrating");
   const auto run = ultrasound::calibrateProbe(in.config, in.calibration, in.validation, {}, lag);
   checkCancel(context);
   const auto& r = run.result;
@@ -86,16 +99,20 @@ StepResult runUsSpatialCalibration(Session& session, const Json& params, const S
       {"segmented_frames", run.calibration.segmented_frames},
       {"total_frames", run.calibration.total_frames},
       {"seconds", run.seconds},
+      {"tracker_lag_ms", run.tracker_lag.lag_s * 1e3},
+      {"tracker_lag_estimated", run.tracker_lag.estimated},
       // PLUS's own result on the same files (data/README.md).
       {"plus_reference",
        {{"calibration_reprojection_3d_mean_mm", 1.15532}, {"validation_reprojection_3d_mean_mm", 1.24684}}},
       {"transforms", {{"ImageToProbe", matrixJson(r.probe_T_image)}}}};
+  if (!run.tracker_lag.note.empty()) result.figures["tracker_lag_note"] = run.tracker_lag.note;
   result.outputs = {output};
   std::ostringstream s;
   s.precision(3);
-  s << "ImageToProbe from " << r.frames_used << " frames: validation 3D reprojection "
+  s << "ImageToProbe from " << r.frames_used << " frames, tracker lag " << run.tracker_lag.lag_s * 1e3 << " ms"
+    << (run.tracker_lag.estimated ? " (estimated)" : "") << ": validation 3D reprojection "
     << run.validation_errors.reprojection_3d_mean_mm << " +/- " << run.validation_errors.reprojection_3d_std_mm
-    << " mm (PLUS 1.25 +/- 0.49)";
+    << " mm (PLUS 1.25 +/- 0.49, without a lag)";
   result.summary = s.str();
   return result;
 }

@@ -96,7 +96,8 @@ std::string renderTrialHtml(const nlohmann::json& report) {
   const std::vector<Row> rows = {
       {"US calibration, validation 3D reprojection (mm)",
        number(at(steps, "us-spatial-calibration" + fig + "validation/reprojection_3d_mean_mm")),
-       meanSd(paper["plus_us_calibration_validation_mm"]), "PLUS ProbeCalibration on the same recording"},
+       meanSd(paper["plus_us_calibration_validation_mm"]),
+       "PLUS ProbeCalibration on the same recording, without the tracker lag"},
       {"US temporal calibration, tracker lag (ms)",
        number(at(steps, "us-temporal-calibration" + fig + "tracker_lag_ms")), "&ndash;", "PLUS's result assumes 0 ms"},
       {"Registration, landmark FRE (mm)", number(at(steps, "registration" + fig + "landmarks/fre_rms_mm")), "&ndash;",

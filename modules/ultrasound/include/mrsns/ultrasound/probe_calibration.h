@@ -57,6 +57,10 @@ struct ProbeCalibrationRun {
   SequenceSegmentation calibration;
   SequenceSegmentation validation;
   CalibrationErrorReport validation_errors;
+  /// The validation frames the errors were computed on (paired with the
+  /// probe pose at their lag-shifted time), e.g. to judge another
+  /// ImageToProbe like for like.
+  std::vector<CalibrationFrame> validation_paired;
   /// The lag applied to both sequences (estimated, given, or 0).
   TrackerLagEstimate tracker_lag;
   std::size_t calibration_frames_paired = 0, validation_frames_paired = 0;  ///< after the lag shift

@@ -28,7 +28,7 @@ enum class CalibrationObjective {
 };
 
 struct SpatialCalibrationOptions {
-  CalibrationObjective objective = CalibrationObjective::DistanceToWires;
+  CalibrationObjective objective = CalibrationObjective::MiddleWirePoints;
   std::size_t min_frames = 10;
   /// The middle-wire points must span the image plane: second principal RMS
   /// extent in the probe frame, mm.

@@ -6,6 +6,7 @@
 // calibration sweep moves the probe enough for the lag to show: a wrong lag
 // pairs each image with a pose from a moment before or after it.
 #include <Eigen/Geometry>
+#include <string>
 #include <vector>
 
 #include "mrsns/core/frame_poses.h"
@@ -22,6 +23,10 @@ struct TrackerLagOptions {
   double lag_s = 0.0;
   double search_half_range_s = 1.0;
   double search_step_s = 0.02;
+  /// When the search fails (best lag at the edge of the range, too few
+  /// frames), apply no lag and say why in TrackerLagEstimate::note instead
+  /// of throwing: for callers that estimate by default (`calibrate-us`).
+  bool fall_back_to_zero = false;
 };
 
 struct LagSample {
@@ -38,6 +43,8 @@ struct TrackerLagEstimate {
   /// recording does not pin the lag down.
   double curvature_mm_per_s2 = 0.0;
   std::vector<LagSample> curve;
+  /// Why no lag was applied although an estimate was asked for (empty otherwise).
+  std::string note;
 };
 
 /// `frames` paired again with the pose at their video time under `lag_s`.
