@@ -1,6 +1,7 @@
 // `mrsns-cli session create|run|info|steps`: the workstation's session and
 // workflow steps, headless (the same calls the GUI makes).
 #include <iostream>
+#include <optional>
 #include <sstream>
 
 #include "cli_context.h"
@@ -24,6 +25,64 @@ nlohmann::json parseParams(const std::vector<std::string>& pairs) {
     params[key] = (parsed.is_discarded() || parsed.is_object() || parsed.is_array()) ? nlohmann::json(value) : parsed;
   }
   return params;
+}
+
+// "TOOL:START_S:DURATION_S" (a PLUS transform name, start >= 0, duration > 0).
+struct Dropout {
+  std::string tool;
+  double start_s = 0.0, duration_s = 0.0;
+};
+std::optional<Dropout> parseDropout(const std::string& text) {
+  const auto a = text.find(':');
+  const auto b = a == std::string::npos ? a : text.find(':', a + 1);
+  if (a == 0 || b == std::string::npos) return std::nullopt;
+  Dropout d;
+  d.tool = text.substr(0, a);
+  try {
+    std::size_t used_start = 0, used_duration = 0;
+    const std::string start = text.substr(a + 1, b - a - 1), duration = text.substr(b + 1);
+    d.start_s = std::stod(start, &used_start);
+    d.duration_s = std::stod(duration, &used_duration);
+    if (used_start != start.size() || used_duration != duration.size()) return std::nullopt;
+  } catch (const std::exception&) {
+    return std::nullopt;
+  }
+  if (!(d.start_s >= 0.0 && d.duration_s > 0.0)) return std::nullopt;
+  return d;
+}
+
+void addNavigationFlags(const std::string& step, const std::string& robot, const std::string& dropout,
+                        nlohmann::json& params) {
+  if (!robot.empty()) {
+    if (step != "navigation") throw InvalidArgumentError("--robot applies to the navigation step, not '" + step + "'");
+    params["robot"] = robot;
+  }
+  if (!dropout.empty()) {
+    if (step != "navigation" && step != "connect-devices") {
+      throw InvalidArgumentError("--tracker-dropout applies to the navigation and connect-devices steps, not '" + step +
+                                 "'");
+    }
+    const auto d = parseDropout(dropout);  // validated by the option's check
+    params["dropout_tool"] = d->tool;
+    params["dropout_start_s"] = d->start_s;
+    params["dropout_duration_s"] = d->duration_s;
+  }
+}
+
+// The figures a script checks after a navigation run, at the top of the JSON.
+void addNavigationReport(const workflow::Session& session, const workflow::StepResult& result, Report& report) {
+  const Json f = report.json["figures"];  // a copy: adding keys below moves the ordered map's storage
+  const bool robot = f.contains("robot");
+  report.json["robot"] = robot ? f["robot"]["mode"] : Json("none");
+  report.json["robot_stopped"] = f.value("robot_stopped", false);
+  report.json["stop_reason"] = f.value("stop_reason", "");
+  report.json["supervisor_state"] = robot ? f["robot"]["supervisor_state"] : Json(nullptr);
+  report.json["stop_latency_cycles"] = robot ? f["robot"]["stop_latency_cycles"] : Json(nullptr);
+  report.json["stop_latency_ms"] = robot ? f["robot"]["stop_latency_ms"] : Json(nullptr);
+  report.json["time_to_stop_s"] = robot ? f["robot"]["time_to_stop_s"] : Json(nullptr);
+  report.json["arm_speed_end_rad_s"] = robot ? f["robot"]["arm_speed_end_rad_s"] : Json(nullptr);
+  report.json["frames_recorded"] = f.value("frames_recorded", 0);
+  report.json["recording"] = result.outputs.empty() ? Json(nullptr) : Json(session.resolve(result.outputs[0]).string());
 }
 
 Json stepsJson(const workflow::Session& session) {
@@ -116,6 +175,8 @@ void registerSessionVerbs(CLI::App& app, GlobalOptions& options, VerbList& verbs
     std::string step;
     std::vector<std::string> params;
     bool progress = false;
+    std::string robot;
+    std::string dropout;
   };
   auto args = std::make_shared<RunArgs>();
   auto* run = group->add_subcommand("run", "Run one workflow step on a session (see 'session steps')");
@@ -123,6 +184,17 @@ void registerSessionVerbs(CLI::App& app, GlobalOptions& options, VerbList& verbs
   run->add_option("STEP", args->step, "step name, e.g. registration")->required();
   run->add_option("--param", args->params, "step parameter NAME=VALUE (repeatable)");
   run->add_flag("--progress", args->progress, "print progress lines on stderr");
+  run->add_option("--robot", args->robot,
+                  "navigation: the robot the loop drives (auto: simulated when the session has a plan)")
+      ->check(CLI::IsMember({"auto", "none", "simulated"}));
+  run->add_option("--tracker-dropout", args->dropout,
+                  "navigation, connect-devices: simulated tracker loss TOOL:START_S:DURATION_S "
+                  "(e.g. PatientToTracker:2.2:1)")
+      ->check(CLI::Validator(
+          [](std::string& text) -> std::string {
+            return parseDropout(text) ? std::string() : "expected TOOL:START_S:DURATION_S, got '" + text + "'";
+          },
+          "TOOL:START_S:DURATION_S"));
   addJsonFlag(*run, options);
   verbs.emplace_back(run, [args]() -> Report {
     auto session = workflow::Session::open(args->folder);
@@ -132,7 +204,9 @@ void registerSessionVerbs(CLI::App& app, GlobalOptions& options, VerbList& verbs
         std::cerr << static_cast<int>(f * 100.0) << "% " << message << "\n";
       };
     }
-    const auto result = workflow::runStep(session, args->step, parseParams(args->params), context);
+    auto params = parseParams(args->params);
+    addNavigationFlags(args->step, args->robot, args->dropout, params);
+    const auto result = workflow::runStep(session, args->step, params, context);
     if (!result.ok) {
       throw ComputationError("step '" + args->step + "' did not succeed: " + result.summary);
     }
@@ -144,6 +218,7 @@ void registerSessionVerbs(CLI::App& app, GlobalOptions& options, VerbList& verbs
     report.json["figures"] = Json::parse(result.figures.dump());
     report.json["outputs"] = result.outputs;
     report.text = args->step + ": " + result.summary + "\n";
+    if (args->step == "navigation") addNavigationReport(session, result, report);
     return report;
   });
 }

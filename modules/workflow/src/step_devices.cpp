@@ -1,6 +1,7 @@
 // connect-devices and navigation steps: run the tracker (and the loop) for a
 // while, report what arrived.
 #include <chrono>
+#include <cmath>
 #include <sstream>
 #include <thread>
 
@@ -8,6 +9,7 @@
 #include "mrsns/io/sequence_file.h"
 #include "mrsns/workflow/navigation.h"
 #include "step_internal.h"
+#include "step_navigation_robot.h"
 
 namespace mrsns::workflow::detail {
 
@@ -113,9 +115,9 @@ StepResult runConnectDevices(Session& session, const Json& params, const StepCon
 }
 
 StepResult runNavigation(Session& session, const Json& params, const StepContext& context) {
-  const Params p(
-      "navigation", params,
-      {MRSNS_DEVICE_KEYS, "duration_s", "record", "deformation_cases", "deformation_frames", "stream_holograms"});
+  const Params p("navigation", params,
+                 {MRSNS_DEVICE_KEYS, MRSNS_NAVIGATION_ROBOT_KEYS, "duration_s", "record", "deformation_cases",
+                  "deformation_frames", "stream_holograms"});
   NavigationOptions options;
   options.devices = deviceOptions(p);
   const double duration = p.number("duration_s", 3.0);
@@ -139,6 +141,9 @@ StepResult runNavigation(Session& session, const Json& params, const StepContext
   // source may name its tools differently, so only the simulator is supervised
   // by default.
   if (options.devices.source != "simulated") options.required_transforms.clear();
+  // With a plan in the session the loop drives the simulated robot along it: a tracker loss then stops
+  // the arm through its safety supervisor.
+  configureNavigationRobot(session, p, options);
 
   NavigationLoop loop(options);
   bool robot_stopped = false;
@@ -154,6 +159,7 @@ StepResult runNavigation(Session& session, const Json& params, const StepContext
     loop.stop();
     throw;
   }
+  waitForArmAtRest(loop);
   loop.stop();
   const auto st = loop.status();
   Json events = Json::array();
@@ -206,10 +212,19 @@ StepResult runNavigation(Session& session, const Json& params, const StepContext
                     {"stop_reason", stop_reason},
                     {"events", events},
                     {"deformation", deformation}};
+  if (options.robot.robot != "none") {
+    result.figures["robot"] = navigationRobotFigures(options, st, loop.robotTransitions());
+    result.figures["time_to_stop_s"] = result.figures["robot"]["time_to_stop_s"];
+    result.figures["stop_latency_ms"] = result.figures["robot"]["stop_latency_ms"];
+    result.figures["stop_latency_cycles"] = st.stop_latency_cycles;
+  }
   std::ostringstream s;
   s.precision(3);
   s << st.batches << " tracking batches, " << recorded_frames << " recorded";
   if (robot_stopped) s << "; robot stopped (" << stop_reason << ")";
+  if (robot_stopped && std::isfinite(st.time_to_stop_s)) {
+    s << " " << st.stop_latency_ms << " ms after the loss, at rest " << st.time_to_stop_s << " s later";
+  }
   if (!deformation.empty()) s << "; posterior E^SD " << deformation["posterior_sd_mean_mm"].get<double>() << " mm";
   if (!st.recorder_error.empty()) s << "; recording failed: " << st.recorder_error;
   result.summary = s.str();

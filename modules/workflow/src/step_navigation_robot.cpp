@@ -1,0 +1,96 @@
+#include "step_navigation_robot.h"
+
+#include <chrono>
+#include <cmath>
+#include <thread>
+
+namespace mrsns::workflow::detail {
+
+namespace {
+
+Eigen::Vector3d vector3(const Json& j, const std::string& what) {
+  if (!j.is_array() || j.size() != 3) {
+    throw InvalidArgumentError("navigation: " + what + " in the session is not [x, y, z]: re-run registration");
+  }
+  return {j[0].get<double>(), j[1].get<double>(), j[2].get<double>()};
+}
+
+Json number(double v) {
+  return std::isfinite(v) ? Json(v) : Json(nullptr);
+}
+
+}  // namespace
+
+void configureNavigationRobot(const Session& session, const Params& params, NavigationOptions& options) {
+  const auto registration = session.step("registration");
+  const bool has_plan = !registration.is_null() && registration.value("status", "") == "ok" &&
+                        registration["figures"].contains("paths") && !registration["figures"]["paths"].empty();
+  std::string mode = params.text("robot", "auto");
+  if (mode == "auto") mode = has_plan ? "simulated" : "none";
+  if (mode != "none" && mode != "simulated") {
+    throw InvalidArgumentError("navigation: robot '" + mode + "' is not one of auto, none, simulated");
+  }
+  options.robot.robot = mode;
+  if (mode == "none") return;
+  options.robot.advance_speed_mm_s = params.number("advance_speed_mm_s", options.robot.advance_speed_mm_s);
+  const int missed = params.integer("max_missed_cycles", static_cast<int>(options.robot.max_missed_cycles));
+  if (missed < 0) throw InvalidArgumentError("navigation: max_missed_cycles must be >= 0");
+  options.robot.max_missed_cycles = static_cast<std::uint64_t>(missed);
+  if (!has_plan) return;  // the default path in front of the patient reference
+  const auto& paths = registration["figures"]["paths"];
+  const int index = params.integer("robot_path", 0);
+  if (index < 0 || index >= static_cast<int>(paths.size())) {
+    throw InvalidArgumentError("navigation: robot_path " + std::to_string(index) + " is not in 0.." +
+                               std::to_string(paths.size() - 1) + " (the registration's planned paths)");
+  }
+  const auto& path = paths[static_cast<std::size_t>(index)];
+  options.robot.plan.name = path.value("name", "path " + std::to_string(index));
+  options.robot.plan.entry = vector3(path["entry_ct"], "entry_ct of " + options.robot.plan.name);
+  options.robot.plan.target = vector3(path["target_ct"], "target_ct of " + options.robot.plan.name);
+  Eigen::Matrix4d patient_T_ct;
+  if (findRecordedTransform(session, "CTToPatient", patient_T_ct)) options.robot.patient_T_plan.matrix() = patient_T_ct;
+}
+
+void waitForArmAtRest(const NavigationLoop& loop) {
+  const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(1);
+  while (std::chrono::steady_clock::now() < end) {
+    const auto s = loop.status();
+    if (!s.robot_stopped || !std::isnan(s.time_to_stop_s)) return;
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+}
+
+Json navigationRobotFigures(const NavigationOptions& options, const NavigationStatus& s,
+                            const std::vector<NavigationRobotTransition>& transitions) {
+  Json log = Json::array();
+  for (const auto& t : transitions) {
+    log.push_back({{"cycle", t.cycle},
+                   {"time_s", t.time_s},
+                   {"from", t.from},
+                   {"to", t.to},
+                   {"reason", t.reason},
+                   {"command", t.command},
+                   {"detail", t.detail},
+                   {"tracking", t.tracking}});
+  }
+  return {{"mode", s.robot},
+          {"plan", options.robot.plan.name},
+          {"docked", s.robot_docked},
+          {"supervisor_state", s.supervisor_state},
+          {"supervisor_stop", s.supervisor_stop},
+          {"guidance_phase", s.guidance_phase},
+          {"stops", s.robot_stops},
+          {"stop_latency_cycles", s.stop_latency_cycles},
+          {"stop_latency_ms", number(s.stop_latency_ms)},
+          {"time_to_stop_s", number(s.time_to_stop_s)},
+          {"stop_time_limit_s", s.stop_time_limit_s},
+          {"arm_speed_end_rad_s", s.arm_speed_rad_s},
+          {"depth_mm", s.depth_mm},
+          {"control_cycles", s.robot_cycles},
+          {"missed_cycles", s.robot_missed_cycles},
+          {"motion_commands", s.motion_commands},
+          {"motion_commands_after_stop", s.motion_commands_after_stop},
+          {"transitions", log}};
+}
+
+}  // namespace mrsns::workflow::detail

@@ -1,0 +1,26 @@
+#pragma once
+// The robot part of the navigation step: which robot and plan the loop uses (the session's first planned
+// path once registration has run), and the figures of its safety supervisor.
+#include <string>
+
+#include "mrsns/workflow/navigation.h"
+#include "step_internal.h"
+
+namespace mrsns::workflow::detail {
+
+/// The step parameters this part reads.
+#define MRSNS_NAVIGATION_ROBOT_KEYS "robot", "robot_path", "advance_speed_mm_s", "max_missed_cycles"
+
+/// robot = "auto" (default: simulated when the session has planned paths, else none), "none" or
+/// "simulated"; robot_path: index into the registration's paths. Throws InvalidArgumentError for others.
+void configureNavigationRobot(const Session& session, const Params& params, NavigationOptions& options);
+
+/// Waits (up to 1 s, the arm's stopping limit with margin) for a stopping arm to come to rest, so the
+/// figures carry its time-to-stop.
+void waitForArmAtRest(const NavigationLoop& loop);
+
+/// The supervisor's figures: state, stop reason, stop latency, time to stop, arm speed, transitions.
+Json navigationRobotFigures(const NavigationOptions& options, const NavigationStatus& status,
+                            const std::vector<NavigationRobotTransition>& transitions);
+
+}  // namespace mrsns::workflow::detail
