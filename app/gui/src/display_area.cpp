@@ -139,8 +139,20 @@ void DisplayArea::render() {
   }
 }
 
+void DisplayArea::renderScene() {
+  if (gl_views_) impl_->view3d->renderWindow()->Render();
+}
+
+void DisplayArea::setHomeView(std::optional<HomeView> view) {
+  home_ = std::move(view);
+}
+
 void DisplayArea::resetCamera() {
-  impl_->scene.resetCamera();
+  if (home_) {
+    impl_->scene.setCamera(home_->position, home_->focal_point, home_->view_up);
+  } else {
+    impl_->scene.resetCamera();
+  }
   if (impl_->slices.hasVolume()) impl_->slices.resetCameras();
   render();
 }

@@ -3,9 +3,11 @@
 // (rendering::Scene) in a VTK OpenGL widget beside the axial, sagittal and
 // coronal CT slice views (rendering::SliceViews). The only place that
 // includes Qt's VTK widgets, so the rest of the GUI compiles without them.
+#include <Eigen/Core>
 #include <QWidget>
 #include <array>
 #include <memory>
+#include <optional>
 
 class QLabel;
 class QSplitter;
@@ -37,7 +39,15 @@ class DisplayArea : public QWidget {
 
   /// Re-renders the 3D view and the slice views (after the scene changed).
   void render();
+  /// Re-renders the 3D view only (the live navigation view, many times a second).
+  void renderScene();
+  /// Back to the home view (Home key, Reset camera): the one set by
+  /// setHomeView, else the scene fitted from the front.
   void resetCamera();
+  struct HomeView {
+    Eigen::Vector3d position, focal_point, view_up;
+  };
+  void setHomeView(std::optional<HomeView> view);
   void setSliceViewsVisible(bool visible);
   [[nodiscard]] bool sliceViewsVisible() const;
 
@@ -45,6 +55,7 @@ class DisplayArea : public QWidget {
   struct Impl;
   std::unique_ptr<Impl> impl_;
   bool gl_views_ = false;
+  std::optional<HomeView> home_;
 };
 
 }  // namespace mrsns::gui

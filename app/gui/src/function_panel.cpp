@@ -19,11 +19,31 @@ FunctionPanel::FunctionPanel(QWidget* parent) : QWidget(parent) {
   layout->setSpacing(10);
 
   navigation_ = new StepList(tr("Navigation and robot"), this);
+  live_ = new QPushButton(tr("Start live navigation"), navigation_);
+  live_->setMinimumWidth(150);
+  live_->setObjectName(QStringLiteral("navigationLive"));
+  live_->setCheckable(true);
+  live_->setToolTip(
+      tr("Run the navigation loop until stopped: tools move in the 3D view, every stream is "
+         "recorded into the session, a robot stop shows its reason in the output area"));
+  connect(live_, &QPushButton::toggled, this, &FunctionPanel::liveNavigationToggled);
+  rearm_ = new QPushButton(tr("Re-arm"), navigation_);
+  rearm_->setObjectName(QStringLiteral("robotRearm"));
+  rearm_->setToolTip(tr("Let the robot move again once tracking is back (it stops again at once if not)"));
+  rearm_->setEnabled(false);
+  connect(rearm_, &QPushButton::clicked, this, &FunctionPanel::robotRearmRequested);
   stop_ = new QPushButton(tr("Stop robot"), navigation_);
   auto* stop = stop_;
   stop->setObjectName(QStringLiteral("robotStop"));
   stop->setProperty("danger", true);
   stop->setToolTip(tr("Cancels the running robot task; the supervisor halts the arm (Esc)"));
+  // Live navigation and re-arm share a row: the function strip stays short.
+  live_row_ = new QWidget(navigation_);
+  auto* live_layout = new QHBoxLayout(live_row_);
+  live_layout->setContentsMargins(0, 0, 0, 0);
+  live_layout->addWidget(live_, 2);
+  live_layout->addWidget(rearm_, 1);
+  navigation_->addWidgetRow(live_row_);
   navigation_->addWidgetRow(stop);
   connect(stop, &QPushButton::clicked, this, &FunctionPanel::robotStopRequested);
   layout->addWidget(navigation_);
@@ -82,7 +102,9 @@ void FunctionPanel::setSteps(const std::vector<StepEntry>& steps) {
     if (step.area != QLatin1String("function")) continue;
     if (!navigation_->hasStep(step.name)) navigation_->addStep(step);
   }
-  navigation_->addWidgetRow(stop_);  // Stop stays below the steps
+  // Live navigation, re-arm and Stop stay below the steps.
+  navigation_->addWidgetRow(live_row_);
+  navigation_->addWidgetRow(stop_);
 }
 
 void FunctionPanel::setStepState(const QString& step, StepState state, const QString& detail) {
@@ -91,6 +113,13 @@ void FunctionPanel::setStepState(const QString& step, StepState state, const QSt
 
 void FunctionPanel::setBusy(bool busy) {
   navigation_->setBusy(busy);
+}
+
+void FunctionPanel::setLiveNavigation(bool on) {
+  const QSignalBlocker block(live_);
+  live_->setChecked(on);
+  live_->setText(on ? tr("Stop live navigation") : tr("Start live navigation"));
+  rearm_->setEnabled(on);
 }
 
 void FunctionPanel::setStreaming(bool on, const QString& detail) {

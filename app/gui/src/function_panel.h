@@ -27,6 +27,8 @@ class FunctionPanel : public QWidget {
   void setStepState(const QString& step, StepState state, const QString& detail = {});
   void setBusy(bool busy);
 
+  /// Reflects live navigation (the button stays in sync when starting fails).
+  void setLiveNavigation(bool on);
   /// Reflects the hologram stream (the button stays in sync when starting fails).
   void setStreaming(bool on, const QString& detail);
   [[nodiscard]] int streamPort() const;
@@ -35,6 +37,8 @@ class FunctionPanel : public QWidget {
  signals:
   void runStepRequested(const QString& step);
   void hologramStreamToggled(bool on);
+  void liveNavigationToggled(bool on);
+  void robotRearmRequested();
   void robotStopRequested();
   void layerToggled(mrsns::gui::DisplayLayer layer, bool visible);
   void resetCameraRequested();
@@ -42,6 +46,9 @@ class FunctionPanel : public QWidget {
  private:
   StepList* navigation_ = nullptr;
   QPushButton* stop_ = nullptr;
+  QPushButton* live_ = nullptr;
+  QPushButton* rearm_ = nullptr;
+  QWidget* live_row_ = nullptr;
   QPushButton* stream_button_ = nullptr;
   QSpinBox* stream_port_ = nullptr;
   QLabel* stream_status_ = nullptr;

@@ -20,6 +20,7 @@
 
 #include "display_area.h"
 #include "function_panel.h"
+#include "live_navigation.h"
 #include "message_presenter.h"
 #include "mrsns/core/error.h"
 #include "mrsns/core/log.h"
@@ -108,6 +109,19 @@ MainWindow::MainWindow(MainWindowOptions options, QWidget* parent) : QMainWindow
   connect(preparation_, &PreparationPanel::importRequested, this, &MainWindow::chooseAndImport);
   connect(preparation_, &PreparationPanel::pivotCalibrationRequested, this, &MainWindow::chooseAndRunPivot);
   connect(function_, &FunctionPanel::robotStopRequested, this, &MainWindow::cancelTask);
+  live_ = new LiveNavigation(display_, output_, function_, this);
+  connect(function_, &FunctionPanel::liveNavigationToggled, this, [this](bool on) {
+    if (on) {
+      startNavigation();
+    } else {
+      stopNavigation();
+    }
+  });
+  connect(function_, &FunctionPanel::robotRearmRequested, live_, &LiveNavigation::rearm);
+  connect(live_, &LiveNavigation::robotStopped, this, [this](const QString& reason, const QDateTime& when) {
+    // A status line, never a modal box: the surgeon keeps both hands free.
+    statusBar()->showMessage(tr("Robot stopped at %1: %2").arg(when.toString(QStringLiteral("HH:mm:ss")), reason));
+  });
   connect(function_, &FunctionPanel::resetCameraRequested, display_, &DisplayArea::resetCamera);
   connect(function_, &FunctionPanel::hologramStreamToggled, this, [this](bool on) {
     if (on) {
@@ -136,6 +150,7 @@ MainWindow::MainWindow(MainWindowOptions options, QWidget* parent) : QMainWindow
 }
 
 MainWindow::~MainWindow() {
+  stopNavigation();
   tasks_->cancel();
   tasks_->waitForFinished();
   stopHologramStream();
@@ -256,6 +271,7 @@ void MainWindow::restoreWindowState() {
 }
 
 void MainWindow::closeEvent(QCloseEvent* event) {
+  stopNavigation();
   if (tasks_->busy()) {
     tasks_->cancel();
     tasks_->waitForFinished();
@@ -308,6 +324,10 @@ void MainWindow::presentInfo(const QString& title, const QString& text) {
 }
 
 bool MainWindow::refuseWhileBusy(const QString& what) {
+  if (navigating()) {
+    presentError(what, tr("Live navigation is running. Stop it first (Stop live navigation in the function area)."));
+    return true;
+  }
   if (!tasks_->busy()) return false;
   presentError(
       what,

@@ -23,7 +23,8 @@ class QDockWidget;
 
 namespace mrsns::workflow {
 class Session;
-}
+struct DeviceOptions;
+}  // namespace mrsns::workflow
 namespace mrsns::tracking {
 class HologramStreamer;
 }
@@ -35,6 +36,7 @@ namespace mrsns::gui {
 
 class DisplayArea;
 class FunctionPanel;
+class LiveNavigation;
 class MessagePresenter;
 class OutputPanel;
 class TaskRunner;
@@ -78,6 +80,16 @@ class MainWindow : public QMainWindow {
   bool runPivotCalibration(const QString& pose_csv);
   void cancelTask();
   [[nodiscard]] bool taskRunning() const;
+
+  /// Starts live navigation (workflow::NavigationLoop on the simulated
+  /// tracker, or `devices`), recording into the session's navigation/
+  /// folder; false (and a message) without a session or while a task runs.
+  bool startNavigation();
+  bool startNavigation(const workflow::DeviceOptions& devices);
+  /// Stops it and records the run as the session's "navigation" step.
+  void stopNavigation();
+  [[nodiscard]] bool navigating() const;
+  LiveNavigation* liveNavigation() const { return live_; }
 
   bool startHologramStream(int port);
   void stopHologramStream();
@@ -132,6 +144,8 @@ class MainWindow : public QMainWindow {
   OutputPanel* output_ = nullptr;
   DisplayArea* display_ = nullptr;
   TaskRunner* tasks_ = nullptr;
+  LiveNavigation* live_ = nullptr;
+  std::string live_recording_;  // relative to the session folder
   QDockWidget* preparation_dock_ = nullptr;
   QDockWidget* function_dock_ = nullptr;
   QDockWidget* output_dock_ = nullptr;

@@ -1,14 +1,19 @@
 // MainWindow's sessions: open, create, save, save as, the sample session's
 // working copy, and showing what a session holds (read-outs, step states,
 // scene).
+#include <QApplication>
 #include <QDir>
 #include <QLabel>
 #include <QStandardPaths>
 #include <QStatusBar>
+#include <cmath>
 #include <filesystem>
+#include <numbers>
+#include <optional>
 
 #include "display_area.h"
 #include "function_panel.h"
+#include "live_navigation.h"
 #include "main_window.h"
 #include "message_presenter.h"
 #include "mrsns/core/error.h"
@@ -30,6 +35,50 @@ QString toQ(const std::string& s) {
 }
 std::filesystem::path toPath(const QString& s) {
   return std::filesystem::path(s.toStdString());
+}
+
+/// Planned screws enter from behind (+y in LPS): the home view looks at
+/// their centre from posterior, lateral and superior (superior up), far
+/// enough to keep the vertebrae around them in view. None without a plan.
+std::optional<DisplayArea::HomeView> homeViewOnPaths(const nlohmann::json& state,
+                                                     const std::map<std::string, TriangleMesh>& meshes) {
+  std::vector<Eigen::Vector3d> points;
+  if (state.contains("steps") && state["steps"].is_object()) {
+    for (const auto& [step, record] : state["steps"].items()) {
+      if (!record.is_object() || !record.contains("figures") || !record["figures"].is_object()) continue;
+      const auto& figures = record["figures"];
+      if (!figures.contains("paths") || !figures["paths"].is_array()) continue;
+      for (const auto& path : figures["paths"]) {
+        for (const char* key : {"entry_ct", "target_ct"}) {
+          if (!path.is_object() || !path.contains(key) || !path[key].is_array() || path[key].size() != 3) continue;
+          const auto& v = path[key];
+          if (v[0].is_number() && v[1].is_number() && v[2].is_number())
+            points.emplace_back(v[0].get<double>(), v[1].get<double>(), v[2].get<double>());
+        }
+      }
+    }
+  }
+  if (points.empty()) return std::nullopt;
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+  for (const auto& p : points) centre += p;
+  centre /= static_cast<double>(points.size());
+  double radius = 0.0;
+  for (const auto& p : points) radius = std::max(radius, (p - centre).norm());
+  // The vertebrae as a whole (their joint bounding box) around the paths' centre.
+  for (const auto& [name, mesh] : meshes) {
+    if (name.rfind("vertebra:", 0) != 0 || mesh.vertices.rows() == 0) continue;
+    for (Eigen::Index i = 0; i < mesh.vertices.rows(); ++i) {
+      radius = std::max(radius, (mesh.vertices.row(i).transpose() - centre).norm());
+    }
+  }
+  radius = std::max(radius, 30.0);
+  // VTK's 30 degree view angle: the sphere of `radius` just fits at this distance.
+  const double distance = radius / std::tan(15.0 * std::numbers::pi / 180.0) * 1.1;
+  DisplayArea::HomeView view;
+  view.focal_point = centre;
+  view.position = centre + distance * Eigen::Vector3d(0.45, 1.0, 0.5).normalized();
+  view.view_up = Eigen::Vector3d::UnitZ();
+  return view;
 }
 
 }  // namespace
@@ -73,6 +122,22 @@ bool MainWindow::openSampleSession() {
       std::filesystem::remove_all(copy);
       std::filesystem::create_directories(copy.parent_path());
       std::filesystem::copy(workflow::sampleSessionPath(), copy, std::filesystem::copy_options::recursive);
+    }
+    // The sample's phantom is generated on demand, never stored: a fresh copy
+    // would open to an empty view. Patient registration generates it and
+    // writes its models (C3-C7, vessel, soft tissue) and screw plans, in
+    // about half a second, so the sample opens showing them.
+    workflow::Session sample = workflow::Session::open(copy);
+    if (!sample.state()["steps"].contains("registration")) {
+      QApplication::setOverrideCursor(Qt::WaitCursor);
+      try {
+        workflow::runStep(sample, "registration", nlohmann::json::object());
+      } catch (...) {
+        QApplication::restoreOverrideCursor();
+        throw;
+      }
+      QApplication::restoreOverrideCursor();
+      sample.log("info", "mrsns: ran Patient registration on the fresh sample copy to show its models");
     }
   } catch (const mrsns::Error& e) {
     presentError(tr("Cannot open the sample session"), QString::fromStdString(e.what()));
@@ -177,6 +242,8 @@ void MainWindow::populateScene() {
   }
   // Without a CT the slice views would be three black boxes: give the 3D view the room.
   display_->setSliceViewsVisible(function_->layerVisible(DisplayLayer::SliceViews) && display_->slices().hasVolume());
+  live_->addTools();  // the scene was cleared under a running navigation
+  display_->setHomeView(homeViewOnPaths(session_->state(), meshes_));
   display_->resetCamera();
 }
 

@@ -97,6 +97,18 @@ OutputPanel::OutputPanel(QWidget* parent) : QWidget(parent) {
   auto* layout = new QVBoxLayout(this);
   layout->setContentsMargins(6, 6, 6, 6);
 
+  stop_banner_ = new QLabel(this);
+  stop_banner_->setObjectName(QStringLiteral("navigationBanner"));
+  stop_banner_->setWordWrap(true);
+  stop_banner_->setTextInteractionFlags(Qt::TextSelectableByMouse);
+  stop_banner_->hide();
+  layout->addWidget(stop_banner_);
+  navigation_status_ = new QLabel(this);
+  navigation_status_->setObjectName(QStringLiteral("navigationStatus"));
+  navigation_status_->setWordWrap(true);
+  navigation_status_->hide();
+  layout->addWidget(navigation_status_);
+
   auto* headline = new QGroupBox(tr("Navigation parameters"), this);
   auto* grid = new QGridLayout(headline);
   grid->setHorizontalSpacing(12);
@@ -123,6 +135,8 @@ OutputPanel::OutputPanel(QWidget* parent) : QWidget(parent) {
     value->setProperty("severity", 0);
     value->setAlignment(Qt::AlignRight | Qt::AlignVCenter);
     value->setTextInteractionFlags(Qt::TextSelectableByMouse);
+    // A long state (a robot stop's reason) wraps instead of widening the dock.
+    value->setWordWrap(true);
     grid->addWidget(name, row, 0);
     grid->addWidget(value, row, 1);
     readouts_[QString::fromLatin1(key)] = value;
@@ -391,7 +405,8 @@ void OutputPanel::showLiveSample(double time_s, double tip_to_tissue_mm, double 
                tip_to_tissue_mm < 2.0   ? 2
                : tip_to_tissue_mm < 5.0 ? 1
                                         : 0);
-    distance_plot_->appendPoint(QStringLiteral("live"), time_s, tip_to_tissue_mm, kGreen);
+    // Named like the step, so the figures recorded at the end replace this series.
+    distance_plot_->appendPoint(QStringLiteral("navigation"), time_s, tip_to_tissue_mm, kGreen);
   }
   if (std::isfinite(latency_ms)) {
     setReadout(QStringLiteral("latency"), QString::number(latency_ms, 'f', 1) + QStringLiteral(" ms"),
@@ -401,6 +416,39 @@ void OutputPanel::showLiveSample(double time_s, double tip_to_tissue_mm, double 
     latency_plot_->setHistogram(latencies_ms_, 20, kViolet);
   }
   if (!supervisor_state.isEmpty()) setSupervisorState(supervisor_state, supervisor_state == QStringLiteral("ok"));
+}
+
+void OutputPanel::beginLiveNavigation() {
+  clearRobotStop();
+  latencies_ms_.clear();
+  latency_plot_->clear();
+  distance_plot_->clear();
+  setNavigationStatus(tr("navigation starting…"));
+}
+
+void OutputPanel::showRobotStop(const QString& reason, const QString& when) {
+  stop_banner_->setText(tr("ROBOT STOPPED\n%1\n%2").arg(reason, when));
+  stop_banner_->show();
+  setSupervisorState(tr("robot stopped"), false);
+  readouts_[QStringLiteral("supervisor")]->setToolTip(reason);
+}
+
+void OutputPanel::clearRobotStop() {
+  stop_banner_->clear();
+  stop_banner_->hide();
+}
+
+QString OutputPanel::robotStopBanner() const {
+  return stop_banner_->isHidden() ? QString() : stop_banner_->text();
+}
+
+void OutputPanel::setNavigationStatus(const QString& text) {
+  navigation_status_->setText(text);
+  navigation_status_->setVisible(!text.isEmpty());
+}
+
+QString OutputPanel::navigationStatus() const {
+  return navigation_status_->text();
 }
 
 void OutputPanel::setSupervisorState(const QString& state, bool ok) {

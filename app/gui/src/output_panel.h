@@ -26,8 +26,21 @@ class OutputPanel : public QWidget {
   void showStepResult(const std::string& step, const std::string& status, const nlohmann::json& figures);
   /// Shows every step recorded in a session state ({"steps": {name: {...}}}).
   void showSessionState(const nlohmann::json& state);
-  /// Live values from the navigation loop.
+  /// Live values from the navigation loop: the tip-to-tissue distance over
+  /// time and the loop latency histogram grow by one sample (NaN: none).
   void showLiveSample(double time_s, double tip_to_tissue_mm, double latency_ms, const QString& supervisor_state);
+  /// A live navigation starts: its plots begin empty, no banner.
+  void beginLiveNavigation();
+  /// The red banner of a robot stop (the reason and when), shown until the
+  /// robot is re-armed or a new navigation starts. No dialog: nobody should
+  /// have to click OK during navigation.
+  void showRobotStop(const QString& reason, const QString& when);
+  void clearRobotStop();
+  /// The banner's text; empty while it is hidden.
+  [[nodiscard]] QString robotStopBanner() const;
+  /// One line on the running navigation (time, batches, recording).
+  void setNavigationStatus(const QString& text);
+  [[nodiscard]] QString navigationStatus() const;
   void setSupervisorState(const QString& state, bool ok);
   void clear();
 
@@ -46,6 +59,8 @@ class OutputPanel : public QWidget {
   void plotsFromFigures(const std::string& step, const nlohmann::json& figures);
 
   std::map<QString, QLabel*> readouts_;
+  QLabel* stop_banner_ = nullptr;
+  QLabel* navigation_status_ = nullptr;
   QTreeWidget* tree_ = nullptr;
   QTabWidget* plots_ = nullptr;
   PlotWidget* residual_plot_ = nullptr;

@@ -251,6 +251,12 @@ std::map<std::string, TriangleMesh> loadSessionScene(const workflow::Session& se
       if (!entry || !target) continue;
       const std::string name = path.value("name", std::to_string(path_index));
       scene.setScrewPath("path:" + name, *entry, *target, 3.5, Eigen::Vector3d(0.30, 0.75, 0.95));
+      // The approach axis 30 mm out of the entry: the screw itself runs inside
+      // the bone, the axis shows from outside where the drill must come from.
+      if ((*target - *entry).norm() > 1e-6) {
+        const Eigen::Vector3d out = *entry - 30.0 * (*target - *entry).normalized();
+        scene.setScrewPath("path:" + name + " approach", out, *entry, 1.2, Eigen::Vector3d(0.30, 0.75, 0.95));
+      }
       ++path_index;
     }
   }

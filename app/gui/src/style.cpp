@@ -29,6 +29,8 @@ QLabel#sliceTitle { color: #8fb8de; font-weight: bold; padding: 2px 4px; backgro
 QLabel[severity="0"] { font-size: 15px; font-weight: bold; color: #e6edf3; }
 QLabel[severity="1"] { font-size: 15px; font-weight: bold; color: #e8c05a; }
 QLabel[severity="2"] { font-size: 15px; font-weight: bold; color: #ff6b5a; }
+QLabel#navigationBanner { background: #b3261e; color: #ffffff; font-size: 15px; font-weight: bold; padding: 8px; border-radius: 4px; }
+QLabel#navigationStatus { color: #9aa5b1; }
 QLabel[placeholder="true"] { background: #15181c; color: #7d8693; }
 QTreeWidget { background: #1b1e23; alternate-background-color: #20242a; border: 1px solid #3a4049; }
 QHeaderView::section { background: #2a2f37; color: #9aa5b1; border: none; padding: 4px; }

@@ -1,0 +1,228 @@
+#include "live_navigation.h"
+
+#include <QTimer>
+#include <cmath>
+
+#include "display_area.h"
+#include "function_panel.h"
+#include "mrsns/core/error.h"
+#include "mrsns/core/log.h"
+#include "mrsns/core/mesh_locator.h"
+#include "mrsns/rendering/scene.h"
+#include "mrsns/rendering/tool_models.h"
+#include "output_panel.h"
+
+namespace mrsns::gui {
+namespace {
+
+// The simulated stylus pivots about its tip 150 mm from its marker
+// (tracking::PivotMotion's default); a real stylus gets this offset from
+// its pivot calibration.
+const Eigen::Vector3d kSimulatedStylusTip(0.0, 0.0, -150.0);
+// Plots keep the last few minutes; the recording keeps everything.
+constexpr std::size_t kMaxSeries = 6000;
+
+struct ToolView {
+  const char* object;
+  const char* frame;  // tracked frame whose pose in the patient frame places the object
+};
+// The stylus model is drawn in its tip frame, the others in their marker frame.
+constexpr ToolView kTools[] = {{kStylusObject, "StylusTip"}, {kProbeObject, "Probe"}, {kFlangeObject, "Flange"}};
+
+void pushBounded(std::vector<double>& v, double x) {
+  if (v.size() >= kMaxSeries) v.erase(v.begin());
+  v.push_back(x);
+}
+
+}  // namespace
+
+std::optional<Eigen::Isometry3d> ctFromPatient(const nlohmann::json& state) {
+  try {
+    const auto& m = state.at("steps").at("registration").at("figures").at("transforms").at("CTToPatient");
+    if (!m.is_array() || m.size() != 16) return std::nullopt;
+    Eigen::Matrix4d patient_T_ct;
+    for (int i = 0; i < 16; ++i) patient_T_ct(i / 4, i % 4) = m[static_cast<std::size_t>(i)].get<double>();
+    Eigen::Isometry3d iso(patient_T_ct);
+    return iso.inverse();
+  } catch (const nlohmann::json::exception&) {
+    return std::nullopt;
+  }
+}
+
+LiveNavigation::LiveNavigation(DisplayArea* display, OutputPanel* output, FunctionPanel* function, QObject* parent)
+    : QObject(parent), display_(display), output_(output), function_(function), timer_(new QTimer(this)) {
+  timer_->setObjectName(QStringLiteral("navigationTimer"));
+  connect(timer_, &QTimer::timeout, this, &LiveNavigation::poll);
+}
+
+LiveNavigation::~LiveNavigation() {
+  if (loop_) loop_->stop();
+}
+
+void LiveNavigation::start(const LiveNavigationSetup& setup) {
+  stop();
+  auto loop = std::make_unique<workflow::NavigationLoop>(setup.options);
+  if (setup.options.devices.source == "simulated") {
+    Eigen::Isometry3d stylus_T_tip = Eigen::Isometry3d::Identity();
+    stylus_T_tip.translation() = kSimulatedStylusTip;
+    loop->repository().setTransform("StylusTip", "Stylus", stylus_T_tip, TransformStatus::Ok,
+                                    std::numeric_limits<double>::quiet_NaN(), true);
+  }
+  locator_.reset();
+  if (!setup.distance_target.empty()) locator_ = std::make_unique<MeshLocator>(setup.distance_target);
+  setup_ = setup;
+  setup_.distance_target = {};  // the locator holds what it needs
+  latency_ms_.clear();
+  tissue_time_s_.clear();
+  tissue_mm_.clear();
+  last_batches_ = 0;
+  last_latency_sum_ms_ = 0.0;
+  stop_reported_ = false;
+  output_->beginLiveNavigation();
+  loop->start();
+  loop_ = std::move(loop);
+  clock_.start();
+  started_ = QDateTime::currentDateTime();
+  addTools();
+  timer_->start(setup.poll_interval_ms);
+  logger()->info("live navigation started ({} tracker)", setup.options.devices.source);
+}
+
+void LiveNavigation::addTools() {
+  if (!loop_) return;
+  auto& scene = display_->scene();
+  scene.setTool(kStylusObject, rendering::ToolKind::Stylus, Eigen::Vector3d(0.95, 0.85, 0.30));
+  scene.setMesh(kProbeObject, rendering::boxMesh(Eigen::Vector3d(-20.0, -8.0, -5.0), Eigen::Vector3d(20.0, 40.0, 5.0)),
+                Eigen::Vector3d(0.45, 0.85, 0.55));
+  scene.setTool(kFlangeObject, rendering::ToolKind::EndEffector, Eigen::Vector3d(0.70, 0.72, 0.78));
+  for (const auto& tool : kTools) scene.setVisible(tool.object, false);  // until tracked
+}
+
+void LiveNavigation::moveTools() {
+  auto& scene = display_->scene();
+  const bool layer_on = function_->layerVisible(DisplayLayer::Tools);
+  const auto& repository = loop_->repository();
+  for (const auto& tool : kTools) {
+    if (!scene.contains(tool.object)) continue;
+    bool ok = false;
+    if (repository.hasFrame(tool.frame) && repository.hasFrame("Patient")) {
+      try {
+        const auto r = repository.getTransform(tool.frame, "Patient");
+        ok = r.ok();
+        if (ok) scene.setPose(tool.object, setup_.world_T_patient * r.to_T_from);
+      } catch (const mrsns::Error&) {
+        ok = false;  // not connected yet
+      }
+    }
+    // A lost tool disappears rather than freezing at its last pose.
+    scene.setVisible(tool.object, ok && layer_on);
+  }
+}
+
+void LiveNavigation::poll() {
+  if (!loop_) return;
+  const workflow::NavigationStatus st = loop_->status();
+  const double t = static_cast<double>(clock_.elapsed()) * 1e-3;
+  moveTools();
+  display_->renderScene();
+
+  // Mean loop latency of the batches since the last poll, from the running mean.
+  double latency_ms = std::nan("");
+  const double sum_ms = st.mean_loop_latency_ms * static_cast<double>(st.batches);
+  if (st.batches > last_batches_) {
+    latency_ms = (sum_ms - last_latency_sum_ms_) / static_cast<double>(st.batches - last_batches_);
+    last_batches_ = st.batches;
+    last_latency_sum_ms_ = sum_ms;
+    pushBounded(latency_ms_, latency_ms);
+  }
+  double tissue_mm = std::nan("");
+  if (locator_) {
+    const auto& repository = loop_->repository();
+    if (repository.hasFrame("StylusTip") && repository.hasFrame("Patient")) {
+      try {
+        const auto r = repository.getTransform("StylusTip", "Patient");
+        if (r.ok()) {
+          const Eigen::Vector3d tip_world = setup_.world_T_patient * r.to_T_from.translation();
+          tissue_mm = locator_->closestPoint(tip_world).distance;
+          pushBounded(tissue_time_s_, t);
+          pushBounded(tissue_mm_, tissue_mm);
+        }
+      } catch (const mrsns::Error&) {
+      }
+    }
+  }
+  output_->showLiveSample(t, tissue_mm, latency_ms,
+                          st.robot_stopped ? tr("robot stopped") : QStringLiteral("ok"));  // the banner says why
+  output_->setNavigationStatus(
+      tr("navigating %1 s · %2 batches · %3 frames recorded · tracker %4%5")
+          .arg(t, 0, 'f', 1)
+          .arg(st.batches)
+          .arg(st.frames_recorded)
+          .arg(QString::fromUtf8(tracking::toString(st.source.state).data()))
+          .arg(st.recorder_error.empty()
+                   ? QString()
+                   : tr(" · recording failed: %1").arg(QString::fromStdString(st.recorder_error))));
+
+  if (st.robot_stopped && !stop_reported_) {
+    stop_reported_ = true;
+    // The supervisor's event carries when (since start) the stop happened.
+    double at_s = t;
+    for (const auto& e : loop_->events()) {
+      if (e.kind == "safety-stop") at_s = e.time_s;
+    }
+    const QDateTime when = started_.addMSecs(static_cast<qint64>(std::llround(at_s * 1e3)));
+    const QString reason = QString::fromStdString(st.stop_reason);
+    output_->showRobotStop(
+        reason, tr("%1 (%2 s after start)").arg(when.toString(QStringLiteral("HH:mm:ss.zzz"))).arg(at_s, 0, 'f', 2));
+    emit robotStopped(reason, when);
+  } else if (!st.robot_stopped && stop_reported_) {
+    stop_reported_ = false;  // re-armed
+    output_->clearRobotStop();
+  }
+}
+
+void LiveNavigation::rearm() {
+  if (loop_) loop_->rearm();
+}
+
+workflow::NavigationStatus LiveNavigation::status() const {
+  return loop_ ? loop_->status() : workflow::NavigationStatus{};
+}
+
+nlohmann::json LiveNavigation::stop() {
+  if (!loop_) return nullptr;
+  timer_->stop();
+  poll();  // the last status and a banner the timer has not shown yet
+  loop_->stop();
+  const workflow::NavigationStatus st = loop_->status();
+  nlohmann::json events = nlohmann::json::array();
+  for (const auto& e : loop_->events()) {
+    events.push_back({{"time_s", e.time_s}, {"kind", e.kind}, {"message", e.message}});
+  }
+  nlohmann::json figures = {{"live", true},
+                            {"source", setup_.options.devices.source},
+                            {"duration_s", static_cast<double>(clock_.elapsed()) * 1e-3},
+                            {"batches", st.batches},
+                            {"frames_recorded", st.frames_recorded},
+                            {"frames_synced", st.frames_synced},
+                            {"max_batch_gap_ms", st.max_batch_gap_s * 1e3},
+                            {"mean_loop_latency_ms", st.mean_loop_latency_ms},
+                            {"robot_stopped", st.robot_stopped},
+                            {"stop_reason", st.stop_reason},
+                            {"recorder_error", st.recorder_error},
+                            {"events", events},
+                            {"loop_latency_ms", latency_ms_}};
+  if (locator_) {
+    figures["distance_target"] = setup_.distance_target_name;
+    figures["tip_to_tissue_mm"] = tissue_mm_;
+    figures["tip_to_tissue_mm_time_s"] = tissue_time_s_;
+  }
+  loop_.reset();
+  auto& scene = display_->scene();
+  for (const auto& tool : kTools) scene.remove(tool.object);
+  display_->renderScene();
+  logger()->info("live navigation stopped: {} batches, {} frames recorded", st.batches, st.frames_recorded);
+  return figures;
+}
+
+}  // namespace mrsns::gui

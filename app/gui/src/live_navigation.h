@@ -1,0 +1,99 @@
+#pragma once
+// Live navigation in the GUI: workflow::NavigationLoop runs tracking,
+// recording and the safety supervisor on its own threads; a QTimer on the GUI
+// thread polls NavigationStatus and moves the tools in the scene from the
+// loop's (thread-safe) transform repository, so VTK is only ever touched on
+// the GUI thread. A robot stop becomes a red banner in the output area, not a
+// dialog: nobody should have to click OK while a drill is in the patient.
+#include <QDateTime>
+#include <QElapsedTimer>
+#include <QObject>
+#include <QString>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "mrsns/core/mesh.h"
+#include "mrsns/workflow/navigation.h"
+
+class QTimer;
+
+namespace mrsns {
+class MeshLocator;
+}
+
+namespace mrsns::gui {
+
+class DisplayArea;
+class FunctionPanel;
+class OutputPanel;
+
+struct LiveNavigationSetup {
+  workflow::NavigationOptions options;
+  /// Places the patient frame in the scene (the scene's world is CT mm):
+  /// CT_T_patient from the registration, identity without one.
+  Eigen::Isometry3d world_T_patient = Eigen::Isometry3d::Identity();
+  /// The surface the stylus tip's distance is measured to (world mm), e.g.
+  /// the vessel; none when empty.
+  TriangleMesh distance_target;
+  std::string distance_target_name;
+  /// How often the GUI polls the loop and redraws the view.
+  int poll_interval_ms = 50;
+};
+
+/// Scene names of the tracked tools the live view draws.
+inline constexpr const char* kStylusObject = "tool:Stylus";
+inline constexpr const char* kProbeObject = "tool:Probe";
+inline constexpr const char* kFlangeObject = "tool:Flange";
+
+class LiveNavigation : public QObject {
+  Q_OBJECT
+ public:
+  LiveNavigation(DisplayArea* display, OutputPanel* output, FunctionPanel* function, QObject* parent = nullptr);
+  ~LiveNavigation() override;
+
+  /// Builds and starts the loop. Throws like workflow::NavigationLoop (bad
+  /// device options, a recording that cannot be written).
+  void start(const LiveNavigationSetup& setup);
+  /// Stops the loop and syncs the recording; returns the run's figures
+  /// (counts, robot stop, events, and the series the plots show:
+  /// loop_latency_ms, tip_to_tissue_mm with tip_to_tissue_mm_time_s).
+  /// Null when it was not running.
+  nlohmann::json stop();
+  [[nodiscard]] bool running() const { return loop_ != nullptr; }
+  /// The robot may move again once the required transforms are back.
+  void rearm();
+  /// Re-adds the tool objects after the scene was cleared (session reloaded).
+  void addTools();
+  [[nodiscard]] workflow::NavigationStatus status() const;
+
+ signals:
+  /// Once per robot stop, with the reason and when it happened.
+  void robotStopped(const QString& reason, const QDateTime& when);
+
+ private:
+  void poll();
+  void moveTools();
+
+  DisplayArea* display_;
+  OutputPanel* output_;
+  FunctionPanel* function_;
+  QTimer* timer_;
+  std::unique_ptr<workflow::NavigationLoop> loop_;
+  LiveNavigationSetup setup_;
+  std::unique_ptr<MeshLocator> locator_;
+  QElapsedTimer clock_;
+  QDateTime started_;
+  bool stop_reported_ = false;
+  std::uint64_t last_batches_ = 0;
+  double last_latency_sum_ms_ = 0.0;
+  std::vector<double> latency_ms_;
+  std::vector<double> tissue_time_s_, tissue_mm_;
+};
+
+/// CT_T_patient from a session state's registration (figures.transforms.CTToPatient, inverted); none without one.
+std::optional<Eigen::Isometry3d> ctFromPatient(const nlohmann::json& session_state);
+
+}  // namespace mrsns::gui

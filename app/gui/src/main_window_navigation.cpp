@@ -1,0 +1,109 @@
+// MainWindow's live navigation (function area): start and stop the
+// navigation loop, record the run into the session as the navigation step.
+#include <QStatusBar>
+#include <filesystem>
+#include <sstream>
+
+#include "function_panel.h"
+#include "live_navigation.h"
+#include "main_window.h"
+#include "mrsns/core/error.h"
+#include "mrsns/workflow/navigation.h"
+#include "mrsns/workflow/session.h"
+#include "output_panel.h"
+
+namespace mrsns::gui {
+
+bool MainWindow::navigating() const {
+  return live_ != nullptr && live_->running();
+}
+
+bool MainWindow::startNavigation() {
+  return startNavigation(workflow::DeviceOptions{});
+}
+
+bool MainWindow::startNavigation(const workflow::DeviceOptions& devices) {
+  if (navigating()) return true;
+  if (!session_) {
+    function_->setLiveNavigation(false);
+    presentError(tr("Start navigation"), tr("No session is open: navigation records every stream into one. Open a "
+                                            "session (Ctrl+O) or the sample session (Ctrl+Shift+O) first."));
+    return false;
+  }
+  if (refuseWhileBusy(tr("Start navigation"))) {
+    function_->setLiveNavigation(false);
+    return false;
+  }
+  LiveNavigationSetup setup;
+  setup.options.devices = devices;
+  // The supervisor needs the patient and the probe; other sources may name
+  // their tools differently (as the navigation step decides).
+  if (devices.source != "simulated") setup.options.required_transforms.clear();
+  try {
+    std::filesystem::create_directories(session_->resolve("navigation"));
+    std::string name;
+    for (int n = 1; name.empty() || std::filesystem::exists(session_->resolve(name)); ++n) {
+      name = "navigation/live_" + std::to_string(n) + ".mhd";
+    }
+    setup.options.recording = session_->resolve(name);
+    if (const auto ct_T_patient = ctFromPatient(session_->state())) setup.world_T_patient = *ct_T_patient;
+    // The tip's distance to what the drill must avoid: the vessel, else any soft tissue.
+    for (const char* wanted : {"vessel", "tissue:"}) {
+      for (const auto& [object, mesh] : meshes_) {
+        if (setup.distance_target.empty() && object.rfind("tissue:", 0) == 0 &&
+            object.find(wanted) != std::string::npos) {
+          setup.distance_target = mesh;
+          setup.distance_target_name = object.substr(7);
+        }
+      }
+    }
+    live_->start(setup);
+    live_recording_ = name;
+  } catch (const mrsns::Error& e) {
+    function_->setLiveNavigation(false);
+    presentError(tr("Cannot start navigation"), QString::fromStdString(e.what()));
+    return false;
+  } catch (const std::filesystem::filesystem_error& e) {
+    function_->setLiveNavigation(false);
+    presentError(tr("Cannot start navigation"),
+                 tr("Cannot create the recording in the session folder: %1. Check its permissions and free space.")
+                     .arg(QString::fromStdString(e.what())));
+    return false;
+  }
+  function_->setLiveNavigation(true);
+  preparation_->setBusy(true);
+  function_->setBusy(true);
+  setStepState(QStringLiteral("navigation"), StepState::Running, {});
+  statusBar()->showMessage(tr("Live navigation: recording to %1").arg(QString::fromStdString(live_recording_)));
+  return true;
+}
+
+void MainWindow::stopNavigation() {
+  if (!navigating()) return;
+  const nlohmann::json figures = live_->stop();
+  function_->setLiveNavigation(false);
+  preparation_->setBusy(false);
+  function_->setBusy(false);
+  const bool ok = figures.value("batches", 0) > 0 && figures.value("recorder_error", std::string()).empty();
+  std::ostringstream summary;
+  summary.precision(3);
+  summary << "live navigation " << figures.value("duration_s", 0.0) << " s: " << figures.value("batches", 0)
+          << " tracking batches, " << figures.value("frames_recorded", 0) << " recorded";
+  if (figures.value("robot_stopped", false)) summary << "; robot stopped (" << figures.value("stop_reason", "") << ")";
+  const std::string raw = live_recording_.substr(0, live_recording_.size() - 4) + ".raw";
+  try {
+    session_->recordStep("navigation", {{"status", ok ? "ok" : "failed"},
+                                        {"summary", summary.str()},
+                                        {"figures", figures},
+                                        {"outputs", {live_recording_, raw}},
+                                        {"params", {{"live", true}, {"source", figures.value("source", "")}}}});
+  } catch (const mrsns::Error& e) {
+    presentError(tr("Cannot record the navigation in the session"), QString::fromStdString(e.what()));
+  }
+  output_->showStepResult("navigation", ok ? "ok" : "failed", figures);
+  setStepState(QStringLiteral("navigation"), ok ? StepState::Done : StepState::Failed, stepHeadline(figures));
+  output_->setNavigationStatus(QString::fromStdString(summary.str()));
+  statusBar()->showMessage(QString::fromStdString(summary.str()), 8000);
+}
+
+}  // namespace mrsns::gui

@@ -1,0 +1,256 @@
+// The live navigation view and the sample session at start, on the real main
+// window under Xvfb: tools moving, a simulated tracker loss stopping the
+// robot with its reason in the output area (no dialog), the recording intact,
+// the plots filled from the run, and the sample's models facing the camera.
+#include <gtest/gtest.h>
+
+#include <QCheckBox>
+#include <QLabel>
+#include <QProcess>
+#include <QProcessEnvironment>
+#include <QPushButton>
+#include <QRegularExpression>
+#include <QSignalSpy>
+#include <filesystem>
+#include <iostream>
+
+#include "display_area.h"
+#include "function_panel.h"
+#include "gui_test_app.h"
+#include "live_navigation.h"
+#include "main_window.h"
+#include "message_presenter.h"
+#include "mrsns/core/error.h"
+#include "mrsns/io/sequence_file.h"
+#include "mrsns/rendering/scene.h"
+#include "mrsns/workflow/navigation.h"
+#include "mrsns/workflow/steps.h"
+#include "output_panel.h"
+#include "plot_widget.h"
+#include "test_data.h"
+
+namespace {
+
+using mrsns::gui::MainWindow;
+using mrsns::gui::RecordingPresenter;
+namespace fs = std::filesystem;
+
+bool haveSample() {
+  try {
+    (void)mrsns::workflow::sampleSessionPath();
+    return true;
+  } catch (const mrsns::FileError&) {
+    return false;
+  }
+}
+
+/// Pixels of the planned screw paths' colour (0.30, 0.75, 0.95): blue over
+/// green over red under any light, also behind the 25 % pink tissue
+/// (0.75 * path + 0.25 * tissue keeps b > 1.4 r and g > 1.2 r), unlike bone,
+/// the red vessel, the tissue alone and the grey-blue background (b/r ~1.5
+/// but g/r ~1.17 and dark).
+int countPathPixels(const QImage& image) {
+  int count = 0;
+  for (int y = 0; y < image.height(); ++y) {
+    for (int x = 0; x < image.width(); ++x) {
+      const QColor c = image.pixelColor(x, y);
+      if (c.blue() < 90) continue;
+      const double r = std::max(c.red(), 1);
+      if (c.blue() > 1.4 * r && c.green() > 1.25 * r) ++count;
+    }
+  }
+  return count;
+}
+
+/// Fraction of pixels differing from the corner (background) colour.
+double foregroundFraction(const QImage& image) {
+  const QColor bg = image.pixelColor(0, 0);
+  long long n = 0;
+  for (int y = 0; y < image.height(); ++y) {
+    for (int x = 0; x < image.width(); ++x) {
+      const QColor c = image.pixelColor(x, y);
+      if (std::abs(c.red() - bg.red()) + std::abs(c.green() - bg.green()) + std::abs(c.blue() - bg.blue()) > 24) ++n;
+    }
+  }
+  return static_cast<double>(n) / (static_cast<double>(image.width()) * image.height());
+}
+
+class LiveNavigationTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    mrsns::test::guiApp();
+    recorder_ = std::make_shared<RecordingPresenter>();
+    scratch_ = mrsns::test::scratchDirectory("gui-live");
+  }
+
+  std::unique_ptr<MainWindow> makeWindow() {
+    mrsns::gui::MainWindowOptions options;
+    options.presenter = recorder_;
+    options.remember_window_state = false;
+    options.sample_work_folder = QString::fromStdString((scratch_ / "sample").string());
+    auto window = std::make_unique<MainWindow>(options);
+    window->resize(1440, 900);
+    window->show();
+    EXPECT_TRUE(QTest::qWaitForWindowExposed(window.get()));
+    return window;
+  }
+
+  std::string messages() const {
+    std::string text;
+    for (const auto& m : recorder_->messages) text += m.title.toStdString() + ": " + m.text.toStdString() + "\n";
+    return text;
+  }
+
+  std::shared_ptr<RecordingPresenter> recorder_;
+  fs::path scratch_;
+};
+
+TEST_F(LiveNavigationTest, TrackerLossStopsTheRobotAndTheOutputAreaSaysWhy) {
+  if (!haveSample()) GTEST_SKIP() << "no bundled sample session";
+  auto window = makeWindow();
+  ASSERT_TRUE(window->openSampleSession()) << messages();
+  // The patient reference marker vanishes 1.0 s in, for 1.5 s (the simulated
+  // tracker reports it INVALID): the supervisor must stop the robot.
+  mrsns::workflow::DeviceOptions devices;
+  devices.dropout_tool = "PatientToTracker";
+  devices.dropout_start_s = 1.0;
+  devices.dropout_duration_s = 1.5;
+  ASSERT_TRUE(window->startNavigation(devices)) << messages();
+  EXPECT_TRUE(window->navigating());
+  auto* toggle = window->findChild<QPushButton*>("navigationLive");
+  ASSERT_NE(toggle, nullptr);
+  EXPECT_TRUE(toggle->isChecked());
+  // Steps wait while navigation records into the session.
+  EXPECT_FALSE(window->findChild<QPushButton*>("step_registration")->isEnabled());
+
+  // Tools are tracked and drawn before the loss.
+  const auto& scene = window->displayArea()->scene();
+  EXPECT_TRUE(scene.contains(mrsns::gui::kStylusObject));
+  auto* output = window->outputPanel();
+  ASSERT_TRUE(mrsns::test::waitUntil([&] { return output->latencyPlot()->histogramCounts().size() > 0; }, 10000))
+      << "no loop latency sample in the histogram";
+
+  auto* banner = window->findChild<QLabel*>("navigationBanner");
+  ASSERT_NE(banner, nullptr);
+  EXPECT_FALSE(banner->isVisible());
+  QTRY_VERIFY_WITH_TIMEOUT(output->robotStopBanner().contains("PatientToTracker"), 15000);
+  EXPECT_TRUE(banner->isVisible());
+  const QString text = output->robotStopBanner();
+  EXPECT_TRUE(text.contains("ROBOT STOPPED")) << text.toStdString();
+  // The time of the stop: a wall-clock time and the time since start, about
+  // the dropout's start (1.0 s; the supervisor runs every batch or 20 ms).
+  EXPECT_TRUE(text.contains(QRegularExpression("\\d\\d:\\d\\d:\\d\\d"))) << text.toStdString();
+  const auto since = QRegularExpression("\\(([0-9.]+) s after start\\)").match(text);
+  ASSERT_TRUE(since.hasMatch()) << text.toStdString();
+  EXPECT_NEAR(since.captured(1).toDouble(), 1.0, 0.3) << text.toStdString();
+  EXPECT_TRUE(output->readout("supervisor").contains("stopped")) << output->readout("supervisor").toStdString();
+  // Dialog-free: nothing was presented to click away.
+  EXPECT_TRUE(recorder_->messages.empty()) << messages();
+  const auto png = mrsns::test::guiArtifactDir() / "main_window_navigation_robot_stopped.png";
+  ASSERT_TRUE(window->saveScreenshot(QString::fromStdString(png.string()))) << messages();
+
+  QTest::mouseClick(toggle, Qt::LeftButton);
+  EXPECT_FALSE(window->navigating());
+  EXPECT_FALSE(toggle->isChecked());
+  EXPECT_TRUE(window->findChild<QPushButton*>("step_registration")->isEnabled());
+  EXPECT_FALSE(scene.contains(mrsns::gui::kStylusObject));
+
+  // The run is the session's navigation step; its recording is intact.
+  const auto state = window->sessionState();
+  ASSERT_TRUE(state["steps"].contains("navigation"));
+  const auto& record = state["steps"]["navigation"];
+  EXPECT_EQ(record["status"], "ok") << record.dump();
+  EXPECT_TRUE(record["figures"]["robot_stopped"].get<bool>());
+  EXPECT_NE(record["figures"]["stop_reason"].get<std::string>().find("PatientToTracker"), std::string::npos);
+  const fs::path recording = fs::path(window->sessionFolder().toStdString()) / record["outputs"][0].get<std::string>();
+  ASSERT_TRUE(fs::exists(recording)) << recording;
+  ASSERT_TRUE(fs::exists(fs::path(recording).replace_extension(".raw")));
+  const auto header = mrsns::io::readSequenceHeader(recording);
+  EXPECT_GT(header.frames.size(), 0u);
+  // stop() syncs: every frame the loop appended is in the file.
+  EXPECT_EQ(header.frames.size(), record["figures"]["frames_recorded"].get<std::size_t>());
+  // Frames during the loss carry the patient reference as not OK.
+  std::size_t invalid = 0;
+  for (const auto& frame : header.frames) {
+    const auto it = frame.transforms.find("PatientToTracker");
+    if (it != frame.transforms.end() && it->second.status != mrsns::TransformStatus::Ok) ++invalid;
+  }
+  EXPECT_GT(invalid, 0u) << "the dropout is not in the recording";
+
+  // The plots keep the run: latency histogram and tip-to-vessel distance over time.
+  EXPECT_GT(output->latencyPlot()->histogramCounts().size(), 0u);
+  EXPECT_EQ(output->distancePlot()->seriesCount(), 1);
+  EXPECT_GT(output->distancePlot()->pointCount(), 5u);
+  EXPECT_EQ(record["figures"]["tip_to_tissue_mm"].size(), output->distancePlot()->pointCount());
+  EXPECT_TRUE(recorder_->messages.empty()) << messages();
+}
+
+TEST_F(LiveNavigationTest, RefusedWithoutASessionWithAMessageAndTheButtonBackOff) {
+  auto window = makeWindow();
+  auto* toggle = window->findChild<QPushButton*>("navigationLive");
+  ASSERT_NE(toggle, nullptr);
+  QTest::mouseClick(toggle, Qt::LeftButton);
+  EXPECT_FALSE(window->navigating());
+  EXPECT_FALSE(toggle->isChecked());
+  ASSERT_EQ(recorder_->messages.size(), 1u);
+  EXPECT_TRUE(recorder_->messages.back().text.contains("session")) << messages();
+  // A bad device option is refused before anything runs.
+  ASSERT_TRUE(window->createSession(QString::fromStdString((scratch_ / "session").string())));
+  mrsns::workflow::DeviceOptions devices;
+  devices.source = "no-such-tracker";
+  EXPECT_FALSE(window->startNavigation(devices));
+  EXPECT_FALSE(toggle->isChecked());
+  ASSERT_EQ(recorder_->messages.size(), 2u);
+  EXPECT_TRUE(recorder_->messages.back().text.contains("no-such-tracker")) << messages();
+}
+
+TEST_F(LiveNavigationTest, SampleSessionOpensWithItsModelsAndThePlannedPathsInView) {
+  if (!haveSample()) GTEST_SKIP() << "no bundled sample session";
+  auto window = makeWindow();
+  ASSERT_TRUE(window->openSampleSession()) << messages();
+  const auto& scene = window->displayArea()->scene();
+  for (const char* name :
+       {"vertebra:C3", "vertebra:C7", "tissue:vessel", "tissue:soft_tissue", "path:C5 left", "path:C6 right"}) {
+    EXPECT_TRUE(scene.contains(name)) << name << " not in the scene at open";
+  }
+  if (!window->displayArea()->hasOpenGlViews()) GTEST_SKIP() << "no OpenGL views on this platform";
+  window->displayArea()->render();
+  const QImage view = window->findChild<QWidget*>("view3d")->grab().toImage();
+  const auto png = mrsns::test::guiArtifactDir() / "view3d_sample_session_at_open.png";
+  view.save(QString::fromStdString(png.string()));
+  // The neck fills a good part of the view and the four screw paths show
+  // (each 3.5 mm wide and ~30 mm long: hundreds of pixels when in view).
+  EXPECT_GT(foregroundFraction(view), 0.2);
+  const int path_pixels = countPathPixels(view);
+  EXPECT_GT(path_pixels, 400) << "planned paths hidden in the home view";
+  // Hiding the paths removes that colour: it is theirs, not something else's.
+  window->findChild<QCheckBox*>("layerPaths")->setChecked(false);
+  window->displayArea()->render();
+  EXPECT_LT(countPathPixels(window->findChild<QWidget*>("view3d")->grab().toImage()), path_pixels / 10);
+  window->findChild<QCheckBox*>("layerPaths")->setChecked(true);
+}
+
+TEST_F(LiveNavigationTest, ExecutableWithoutArgumentsOpensTheSampleSession) {
+  if (!haveSample()) GTEST_SKIP() << "no bundled sample session";
+  const auto png = mrsns::test::guiArtifactDir() / "mrsns_no_arguments.png";
+  fs::remove(png);
+  QProcess process;
+  // A fresh install: an empty data folder, so the sample is copied and prepared.
+  QProcessEnvironment env = QProcessEnvironment::systemEnvironment();
+  env.insert("XDG_DATA_HOME", QString::fromStdString((scratch_ / "xdg-data").string()));
+  env.insert("XDG_CONFIG_HOME", QString::fromStdString((scratch_ / "xdg-config").string()));
+  process.setProcessEnvironment(env);
+  process.start(QStringLiteral(MRSNS_GUI_BINARY),
+                {"--screenshot", QString::fromStdString(png.string()), "--size", "1280x800"});
+  ASSERT_TRUE(process.waitForFinished(60000));
+  const QString err = QString::fromLocal8Bit(process.readAllStandardError());
+  EXPECT_EQ(process.exitCode(), 0) << err.toStdString();
+  EXPECT_TRUE(err.contains("sample-session")) << err.toStdString();
+  EXPECT_TRUE(
+      fs::exists(scratch_ / "xdg-data" / "MR-SNS" / "mrsns" / "sample-session" / "registration" / "models" / "C5.vtp"));
+  const QImage image(QString::fromStdString(png.string()));
+  ASSERT_FALSE(image.isNull()) << err.toStdString();
+  EXPECT_EQ(image.size(), QSize(1280, 800));
+}
+
+}  // namespace
