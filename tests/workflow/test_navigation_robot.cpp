@@ -145,6 +145,23 @@ TEST(NavigationRobot, PatientLossWhileAdvancingStopsTheArmThroughTheSupervisorAn
   EXPECT_GT(recording.frames.back().transforms.count("DrillToTracker"), 0u) << "the drill marker is recorded";
 }
 
+TEST(NavigationRobot, PatientLossDuringTheApproachStopsTheMovingArmWithinItsStoppingLimit) {
+  // The approach moves the tip at up to 40 mm/s: the joints have real speed to lose here.
+  auto o = robotOptions({});
+  o.devices.dropout_tool = "PatientToTracker";
+  o.devices.dropout_start_s = 0.7;
+  o.devices.dropout_duration_s = 3.0;
+  NavigationLoop loop(o);
+  loop.start();
+  ASSERT_TRUE(waitFor([&] { return loop.status().robot_stopped; }, 4000ms)) << describe(loop.robotTransitions());
+  const auto log = loop.robotTransitions();
+  const auto* stop = firstStop(log);
+  ASSERT_NE(stop, nullptr);
+  EXPECT_EQ(stop->from, "Aligning") << describe(log);
+  EXPECT_EQ(stop->reason, "PatientNotTracked");
+  expectStoppedAndStill(loop);
+}
+
 TEST(NavigationRobot, ProbeLossStopsTheArmAsToolNotTracked) {
   auto o = robotOptions(test::scratchDirectory("navrobot") / "probe.mhd");
   o.devices.dropout_tool = "ProbeToTracker";

@@ -215,6 +215,8 @@ void NavigationLoop::process(const std::vector<tracking::ToolUpdate>& batch, dou
     robot_->fillStatus(robot_status);
     frame.custom_fields["SupervisorState"] = robot_status.supervisor_state;
   }
+  // The supervisor first: a loss must not wait for the disk.
+  if (robot_) feedRobot(arrived_s, frame.timestamp);
   if (recorder_ && !recorder_->append(frame)) {
     std::lock_guard lock(mutex_);
     if (status_.recorder_error.empty()) {
@@ -222,7 +224,6 @@ void NavigationLoop::process(const std::vector<tracking::ToolUpdate>& batch, dou
       addEvent(arrived_s, "recorder-error", recorder_->lastError());
     }
   }
-  if (robot_) feedRobot(arrived_s, frame.timestamp);
   if (deformation_) {
     try {
       deformation_(*repository_, arrived_s);

@@ -108,11 +108,13 @@ void NavigationRobot::dock(const Eigen::Isometry3d& tracker_T_patient) {
 
 std::optional<tracking::ToolUpdate> NavigationRobot::observeDrill(
     const std::optional<Eigen::Isometry3d>& tracker_T_patient, double timestamp, bool visible) {
-  if (stopping_) return std::nullopt;
   if (!docked_) {
     if (!tracker_T_patient) return std::nullopt;
+    std::lock_guard lock(thread_mutex_);
+    if (stopping_) return std::nullopt;
     dock(*tracker_T_patient);
   }
+  if (stopping_) return std::nullopt;
   Eigen::Isometry3d tracker_T_marker = tracker_T_base_ * arm_->state().base_T_flange * flange_T_marker_;
   if (marker_noise_mm_ > 0.0) {
     // The simulated tracker's noise model: isotropic, per-axis sigma = rms / sqrt(3).
@@ -325,9 +327,12 @@ bool NavigationRobot::startPlacement() {
 }
 
 void NavigationRobot::stop() {
-  stopping_ = true;
-  quit_ = true;
-  if (thread_.joinable()) thread_.join();
+  {
+    std::lock_guard lock(thread_mutex_);
+    stopping_ = true;
+    quit_ = true;
+    if (thread_.joinable()) thread_.join();
+  }
   std::lock_guard lock(request_mutex_);
   requests_.clear();
 }

@@ -94,6 +94,7 @@ class NavigationRobot {
   std::atomic<bool> docked_{false};
   std::atomic<bool> stopping_{false};
   std::atomic<bool> quit_{false};
+  std::mutex thread_mutex_;  // docking (loop thread) against stop() (caller's thread)
   std::thread thread_;
 
   mutable std::mutex feed_mutex_;  // guards feed_, loss_onset_s_
