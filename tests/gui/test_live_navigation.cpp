@@ -149,6 +149,11 @@ TEST_F(LiveNavigationTest, TrackerLossStopsTheRobotAndTheOutputAreaSaysWhy) {
   const auto png = mrsns::test::guiArtifactDir() / "main_window_navigation_robot_stopped.png";
   ASSERT_TRUE(window->saveScreenshot(QString::fromStdString(png.string()))) << messages();
 
+  // Soft-tissue tracking runs from the loop's deformation hook: the model
+  // error curve grows while navigating (the simulation takes a moment to build).
+  EXPECT_TRUE(mrsns::test::waitUntil([&] { return output->deformationPlot()->pointCount() >= 12; }, 20000))
+      << "no soft-tissue model error over time";
+
   QTest::mouseClick(toggle, Qt::LeftButton);
   EXPECT_FALSE(window->navigating());
   EXPECT_FALSE(toggle->isChecked());
@@ -182,6 +187,14 @@ TEST_F(LiveNavigationTest, TrackerLossStopsTheRobotAndTheOutputAreaSaysWhy) {
   EXPECT_EQ(output->distancePlot()->seriesCount(), 1);
   EXPECT_GT(output->distancePlot()->pointCount(), 5u);
   EXPECT_EQ(record["figures"]["tip_to_tissue_mm"].size(), output->distancePlot()->pointCount());
+  // Per-frame posterior error against the simulation's ground truth, from
+  // the prior (model mean) on; its convergence is test_live_deformation's.
+  const auto& deformation = record["figures"]["deformation_error_mm"];
+  ASSERT_GE(deformation.size(), 12u);
+  EXPECT_EQ(deformation.size(), output->deformationPlot()->pointCount());
+  EXPECT_EQ(deformation.size(), record["figures"]["deformation_error_mm_time_s"].size());
+  EXPECT_EQ(deformation[0].get<double>(), record["figures"]["deformation_prior_error_mm"].get<double>());
+  for (const auto& e : deformation) EXPECT_TRUE(e.get<double>() > 0.0 && e.get<double>() < 20.0) << e;
   EXPECT_TRUE(recorder_->messages.empty()) << messages();
 }
 

@@ -5,6 +5,7 @@
 
 #include "display_area.h"
 #include "function_panel.h"
+#include "live_deformation.h"
 #include "mrsns/core/error.h"
 #include "mrsns/core/log.h"
 #include "mrsns/core/mesh_locator.h"
@@ -67,6 +68,19 @@ void LiveNavigation::start(const LiveNavigationSetup& setup) {
     stylus_T_tip.translation() = kSimulatedStylusTip;
     loop->repository().setTransform("StylusTip", "Stylus", stylus_T_tip, TransformStatus::Ok,
                                     std::numeric_limits<double>::quiet_NaN(), true);
+  }
+  deformation_.reset();
+  deformation_time_s_.clear();
+  deformation_mm_.clear();
+  deformation_prior_mm_ = std::numeric_limits<double>::quiet_NaN();
+  if (setup.track_deformation) {
+    LiveDeformationOptions deformation_options;
+    deformation_options.seed = setup.options.devices.seed;
+    // At the tracker's rate, one ultrasound frame about every 50 ms.
+    deformation_options.batches_per_frame =
+        std::max(1, static_cast<int>(std::lround(setup.options.devices.rate_hz / 20.0)));
+    deformation_ = std::make_shared<LiveDeformation>(deformation_options);
+    loop->setDeformationHook([d = deformation_](const TransformRepository&, double time_s) { d->onBatch(time_s); });
   }
   locator_.reset();
   if (!setup.distance_target.empty()) locator_ = std::make_unique<MeshLocator>(setup.distance_target);
@@ -151,6 +165,14 @@ void LiveNavigation::poll() {
       }
     }
   }
+  if (deformation_) {
+    for (const auto& sample : deformation_->takeSamples()) {
+      if (sample.frame < 0 && std::isnan(deformation_prior_mm_)) deformation_prior_mm_ = sample.error_mm;
+      pushBounded(deformation_time_s_, sample.time_s);
+      pushBounded(deformation_mm_, sample.error_mm);
+      output_->showDeformationSample(sample.time_s, sample.error_mm);
+    }
+  }
   output_->showLiveSample(t, tissue_mm, latency_ms,
                           st.robot_stopped ? tr("robot stopped") : QStringLiteral("ok"));  // the banner says why
   output_->setNavigationStatus(
@@ -217,7 +239,19 @@ nlohmann::json LiveNavigation::stop() {
     figures["tip_to_tissue_mm"] = tissue_mm_;
     figures["tip_to_tissue_mm_time_s"] = tissue_time_s_;
   }
+  if (deformation_) {
+    figures["deformation_error_mm"] = deformation_mm_;
+    figures["deformation_error_mm_time_s"] = deformation_time_s_;
+    figures["deformation_prior_error_mm"] =
+        std::isnan(deformation_prior_mm_) ? nlohmann::json(nullptr) : nlohmann::json(deformation_prior_mm_);
+    figures["deformation_model"] =
+        "simulated carotid sweep (paper 001 III.A), contours of the true cut; error = mean vertex distance of the "
+        "posterior shape to the held-out truth";
+    const std::string failure = deformation_->failure();
+    if (!failure.empty()) figures["deformation_failure"] = failure;
+  }
   loop_.reset();
+  deformation_.reset();
   auto& scene = display_->scene();
   for (const auto& tool : kTools) scene.remove(tool.object);
   display_->renderScene();

@@ -9,6 +9,7 @@
 #include <QElapsedTimer>
 #include <QObject>
 #include <QString>
+#include <limits>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -28,6 +29,7 @@ namespace mrsns::gui {
 
 class DisplayArea;
 class FunctionPanel;
+class LiveDeformation;
 class OutputPanel;
 
 struct LiveNavigationSetup {
@@ -39,6 +41,9 @@ struct LiveNavigationSetup {
   /// the vessel; none when empty.
   TriangleMesh distance_target;
   std::string distance_target_name;
+  /// Track the soft tissue (simulated carotid sweep, LiveDeformation) from
+  /// the loop's deformation hook.
+  bool track_deformation = true;
   /// How often the GUI polls the loop and redraws the view.
   int poll_interval_ms = 50;
 };
@@ -59,7 +64,8 @@ class LiveNavigation : public QObject {
   void start(const LiveNavigationSetup& setup);
   /// Stops the loop and syncs the recording; returns the run's figures
   /// (counts, robot stop, events, and the series the plots show:
-  /// loop_latency_ms, tip_to_tissue_mm with tip_to_tissue_mm_time_s).
+  /// loop_latency_ms, tip_to_tissue_mm and deformation_error_mm, each with
+  /// its *_time_s).
   /// Null when it was not running.
   nlohmann::json stop();
   [[nodiscard]] bool running() const { return loop_ != nullptr; }
@@ -84,6 +90,7 @@ class LiveNavigation : public QObject {
   std::unique_ptr<workflow::NavigationLoop> loop_;
   LiveNavigationSetup setup_;
   std::unique_ptr<MeshLocator> locator_;
+  std::shared_ptr<LiveDeformation> deformation_;
   QElapsedTimer clock_;
   QDateTime started_;
   bool stop_reported_ = false;
@@ -91,6 +98,8 @@ class LiveNavigation : public QObject {
   double last_latency_sum_ms_ = 0.0;
   std::vector<double> latency_ms_;
   std::vector<double> tissue_time_s_, tissue_mm_;
+  std::vector<double> deformation_time_s_, deformation_mm_;
+  double deformation_prior_mm_ = std::numeric_limits<double>::quiet_NaN();
 };
 
 /// CT_T_patient from a session state's registration (figures.transforms.CTToPatient, inverted); none without one.

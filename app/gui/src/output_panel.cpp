@@ -418,11 +418,16 @@ void OutputPanel::showLiveSample(double time_s, double tip_to_tissue_mm, double 
   if (!supervisor_state.isEmpty()) setSupervisorState(supervisor_state, supervisor_state == QStringLiteral("ok"));
 }
 
+void OutputPanel::showDeformationSample(double time_s, double error_mm) {
+  if (std::isfinite(error_mm)) deformation_plot_->appendPoint(QStringLiteral("navigation"), time_s, error_mm, kOrange);
+}
+
 void OutputPanel::beginLiveNavigation() {
   clearRobotStop();
   latencies_ms_.clear();
   latency_plot_->clear();
   distance_plot_->clear();
+  deformation_plot_->clear();
   setNavigationStatus(tr("navigation starting…"));
 }
 

@@ -29,6 +29,8 @@ class OutputPanel : public QWidget {
   /// Live values from the navigation loop: the tip-to-tissue distance over
   /// time and the loop latency histogram grow by one sample (NaN: none).
   void showLiveSample(double time_s, double tip_to_tissue_mm, double latency_ms, const QString& supervisor_state);
+  /// One soft-tissue model error sample (posterior vs ground truth, mm) during navigation.
+  void showDeformationSample(double time_s, double error_mm);
   /// A live navigation starts: its plots begin empty, no banner.
   void beginLiveNavigation();
   /// The red banner of a robot stop (the reason and when), shown until the
