@@ -28,6 +28,9 @@ NavigationOptions robotOptions(const std::filesystem::path& recording) {
   // shared, non-real-time test machine may skip control cycles under load.
   o.robot.max_cycle_time_s = 0.2;
   o.robot.max_missed_cycles = 200;
+  // Likewise a tracker thread starved for 0.25 s on an overloaded machine is a genuine stale-pose stop;
+  // these tests script other losses (staleness: test_navigation_robot_silence.cpp).
+  o.silence_timeout_s = 1.0;
   return o;
 }
 

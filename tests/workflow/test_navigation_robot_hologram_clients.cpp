@@ -26,6 +26,7 @@ TEST(NavigationRobotHologramClients, ClientMessagesNeitherMoveNorStopTheRobot) {
   o.robot.robot = "simulated";
   o.robot.max_cycle_time_s = 0.2;  // stops here could only come from tracking (the watchdog has its own tests)
   o.robot.max_missed_cycles = 200;
+  o.silence_timeout_s = 1.0;  // nor from a tracker thread starved on an overloaded machine
   o.stream_holograms = true;
   tracking::HologramModel model;
   model.name = "C5";

@@ -21,7 +21,8 @@ TEST(NavigationStepRobot, WithAPlanTheTrackerLossStopsTheRobotAndTheFiguresSayWh
                                {"dropout_duration_s", 1.0},
                                {"deformation_cases", 0},
                                // Stops must come from tracking, not from this shared machine's scheduling.
-                               {"max_missed_cycles", 200}},
+                               {"max_missed_cycles", 200},
+                               {"silence_timeout_s", 1.0}},
                               {});
   ASSERT_TRUE(result.ok) << result.summary;
   const auto& f = result.figures;

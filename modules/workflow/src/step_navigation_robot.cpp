@@ -25,6 +25,10 @@ void configureNavigationRobot(const Session& session, const Params& params, Navi
   const auto registration = session.step("registration");
   const bool has_plan = !registration.is_null() && registration.value("status", "") == "ok" &&
                         registration["figures"].contains("paths") && !registration["figures"]["paths"].empty();
+  options.silence_timeout_s = params.number("silence_timeout_s", options.silence_timeout_s);
+  if (!(options.silence_timeout_s > 0.0 && options.silence_timeout_s <= 10.0)) {
+    throw InvalidArgumentError("navigation: silence_timeout_s must be in (0, 10] s");
+  }
   std::string mode = params.text("robot", "auto");
   if (mode == "auto") mode = has_plan ? "simulated" : "none";
   if (mode != "none" && mode != "simulated") {
