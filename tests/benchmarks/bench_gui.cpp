@@ -1,0 +1,234 @@
+// The workstation's own figures (issue 10), under Xvfb/Mesa:
+//
+// BM_GuiStartup: one QApplication, then per iteration a MainWindow at
+// 1280x800 opening the (already prepared) sample session, shown, events
+// processed until the window is exposed and the 3D view has rendered once,
+// then destroyed. BM_GuiStartupFreshSample: the same on a fresh copy of the
+// sample, so the first open's Patient registration (which generates the
+// phantom's models) is included, as on a fresh install.
+//
+// BM_HologramLatencyWhileRendering: a workflow::NavigationLoop on the
+// simulated tracker (100 Hz) streams holograms (stream_holograms) to an
+// OpenIGTLink client on 127.0.0.1 (igtlink::Client) while the GUI's 3D view
+// renders the sample session without pause, a tracked stylus moving in it.
+// Latency = client receive time - sample time, the sample time being the
+// TRANSFORM header's timestamp (the PatientToTracker sample's, seconds since
+// the simulated tracker started) plus the tracker's start (see below:
+// latencies are lower bounds exact to the run's smallest latency).
+//
+//   xvfb-run -a build/tests/benchmarks/mrsns_bench_gui
+#include <benchmark/benchmark.h>
+
+#include <QApplication>
+#include <QElapsedTimer>
+#include <QStandardPaths>
+#include <QTest>
+#include <QTimer>
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <filesystem>
+#include <mutex>
+#include <vector>
+
+#include "display_area.h"
+#include "main_window.h"
+#include "message_presenter.h"
+#include "mrsns/igtlink/client.h"
+#include "mrsns/rendering/scene.h"
+#include "mrsns/rendering/tool_models.h"
+#include "mrsns/workflow/navigation.h"
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+using namespace mrsns;
+namespace fs = std::filesystem;
+
+QApplication& app() {
+  static int argc = 1;
+  static char name[] = "mrsns_bench_gui";
+  static char* argv[] = {name, nullptr};
+  static QApplication* a = [] {
+    gui::prepareOpenGlSurfaceFormat();
+    QStandardPaths::setTestModeEnabled(true);  // no user settings touched
+    auto* created = new QApplication(argc, argv);
+    QApplication::setOrganizationName(QStringLiteral("MR-SNS-bench"));
+    QApplication::setApplicationName(QStringLiteral("mrsns-bench-gui"));
+    return created;
+  }();
+  return *a;
+}
+
+fs::path sampleCopy() {
+  static const fs::path dir = fs::temp_directory_path() / ("mrsns_bench_gui_" + std::to_string(::getpid()));
+  return dir / "sample";
+}
+
+gui::MainWindowOptions windowOptions() {
+  gui::MainWindowOptions options;
+  options.presenter = std::make_shared<gui::RecordingPresenter>();
+  options.remember_window_state = false;
+  options.sample_work_folder = QString::fromStdString(sampleCopy().string());
+  return options;
+}
+
+/// Constructs, shows, opens the sample, renders once; returns ms to the first render.
+double openAndRender(bool* ok) {
+  QElapsedTimer timer;
+  timer.start();
+  double to_first_render_ms = 0.0;
+  {
+    gui::MainWindow window(windowOptions());
+    window.resize(1280, 800);
+    window.show();
+    *ok = window.openSampleSession() && QTest::qWaitForWindowExposed(&window, 10000);
+    window.displayArea()->render();
+    to_first_render_ms = static_cast<double>(timer.nsecsElapsed()) * 1e-6;
+  }
+  QApplication::processEvents();  // deferred deletes
+  return to_first_render_ms;
+}
+
+void startupBenchmark(benchmark::State& state, bool fresh) {
+  app();
+  bool ok = true;
+  if (!fresh) openAndRender(&ok);  // prepares the copy once, outside the timing
+  double sum_ms = 0.0;
+  for (auto _ : state) {
+    if (fresh) {
+      state.PauseTiming();
+      fs::remove_all(sampleCopy());
+      state.ResumeTiming();
+    }
+    sum_ms += openAndRender(&ok);
+    if (!ok) {
+      state.SkipWithError("the sample session did not open (is it bundled?) or the window was not exposed");
+      break;
+    }
+  }
+  state.counters["to_first_render_ms"] = benchmark::Counter(sum_ms, benchmark::Counter::kAvgIterations);
+}
+
+void BM_GuiStartup(benchmark::State& state) {
+  startupBenchmark(state, false);
+}
+BENCHMARK(BM_GuiStartup)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(10);
+
+void BM_GuiStartupFreshSample(benchmark::State& state) {
+  startupBenchmark(state, true);
+}
+BENCHMARK(BM_GuiStartupFreshSample)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(5);
+
+void BM_HologramLatencyWhileRendering(benchmark::State& state) {
+  app();
+  for (auto _ : state) {
+    gui::MainWindow window(windowOptions());
+    window.resize(1280, 800);
+    window.show();
+    if (!window.openSampleSession() || !QTest::qWaitForWindowExposed(&window, 10000)) {
+      state.SkipWithError("the sample session did not open or the window was not exposed");
+      break;
+    }
+    auto& scene = window.displayArea()->scene();
+    scene.setTool("tool:Stylus", rendering::ToolKind::Stylus, Eigen::Vector3d(0.95, 0.85, 0.3));
+
+    workflow::NavigationOptions options;
+    options.devices.rate_hz = 100.0;
+    options.stream_holograms = true;
+    options.hologram_port = 0;
+    std::vector<tracking::HologramModel> models{
+        {"Spine", rendering::sphereMesh(Eigen::Vector3d::Zero(), 20.0), "Preop"}};
+    workflow::NavigationLoop loop(options, std::move(models));
+    // Registration and HMD calibration: the persistent edges of Eq. 1.
+    const double no_time = std::numeric_limits<double>::quiet_NaN();
+    loop.repository().setTransform("Preop", "Patient", Eigen::Isometry3d::Identity(), TransformStatus::Ok, no_time,
+                                   true);
+    Eigen::Isometry3d tracker_T_hologram = Eigen::Isometry3d::Identity();
+    tracker_T_hologram.translation() = Eigen::Vector3d(0.0, 300.0, -500.0);
+    loop.repository().setTransform("Hologram", "Tracker", tracker_T_hologram, TransformStatus::Ok, no_time, true);
+
+    const auto before = Clock::now();
+    loop.start();
+
+    std::mutex mutex;
+    std::vector<std::pair<Clock::time_point, double>> received;  // (receive time, sample time since t0)
+    igtlink::ClientOptions client_options;
+    client_options.port = loop.status().hologram_port;
+    igtlink::Client hmd(client_options);
+    hmd.onMessage([&](const igtlink::Message& m) {
+      const auto now = Clock::now();
+      if (m.header.type != "TRANSFORM") return;
+      std::lock_guard lock(mutex);
+      received.emplace_back(now, m.header.timestampSeconds());
+    });
+    hmd.start();
+
+    // The 3D view renders back to back; the stylus follows the tracker.
+    std::atomic<int> frames{0};
+    QTimer render;
+    QObject::connect(&render, &QTimer::timeout, [&] {
+      const auto& repository = loop.repository();
+      if (repository.hasFrame("Stylus") && repository.hasFrame("Tracker")) {
+        const auto r = repository.getTransform("Stylus", "Tracker");
+        if (r.ok()) scene.setPose("tool:Stylus", r.to_T_from);
+      }
+      window.displayArea()->renderScene();
+      ++frames;
+    });
+    render.start(0);
+    QElapsedTimer run;
+    run.start();
+    QTest::qWait(static_cast<int>(state.range(0)));
+    const double seconds = static_cast<double>(run.elapsed()) * 1e-3;
+    render.stop();
+    hmd.stop();
+    loop.stop();
+
+    std::lock_guard lock(mutex);
+    // The tracker's clock starts on its own thread inside start(): after
+    // `before`, and (latency >= 0) no later than any receive time minus its
+    // sample time. A loaded machine can start that thread hundreds of ms
+    // after start() returns, so `after` is no estimate; the latest possible
+    // start is, and makes these latencies lower bounds, exact up to the
+    // smallest latency of the run (tens of microseconds on loopback).
+    auto t0 = Clock::time_point::max();
+    for (const auto& [at, sample_s] : received) {
+      t0 = std::min(t0, at - std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(sample_s)));
+    }
+    std::vector<double> latencies_ms;
+    for (const auto& [at, sample_s] : received) {
+      const auto sample = t0 + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(sample_s));
+      latencies_ms.push_back(std::chrono::duration<double, std::milli>(at - sample).count());
+    }
+    std::sort(latencies_ms.begin(), latencies_ms.end());
+    auto percentile = [&](double p) {
+      return latencies_ms.empty() ? 0.0 : latencies_ms[static_cast<std::size_t>(p * (latencies_ms.size() - 1))];
+    };
+    state.counters["p50_ms"] = percentile(0.50);
+    state.counters["p99_ms"] = percentile(0.99);
+    state.counters["max_ms"] = latencies_ms.empty() ? 0.0 : latencies_ms.back();
+    state.counters["received"] = static_cast<double>(latencies_ms.size());
+    state.counters["batches"] = static_cast<double>(loop.status().batches);
+    state.counters["render_fps"] = frames.load() / seconds;
+    state.counters["loop_latency_ms"] = loop.status().mean_loop_latency_ms;
+    // How long after start() was called the tracker's clock started (at the latest).
+    if (!received.empty()) {
+      state.counters["tracker_start_ms"] = std::chrono::duration<double, std::milli>(t0 - before).count();
+    }
+    if (latencies_ms.empty()) state.SkipWithError("the client received no TRANSFORM");
+  }
+}
+BENCHMARK(BM_HologramLatencyWhileRendering)->Arg(5000)->Iterations(1)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  std::error_code ec;
+  fs::remove_all(sampleCopy().parent_path(), ec);
+  return 0;
+}
