@@ -18,6 +18,7 @@
 //
 //   xvfb-run -a build/tests/benchmarks/mrsns_bench_gui
 #include <benchmark/benchmark.h>
+#include <unistd.h>
 
 #include <QApplication>
 #include <QElapsedTimer>

@@ -112,3 +112,43 @@ TEST(OutputPanel, NestedWorkflowFiguresFillReadoutsAndCurves) {
   EXPECT_EQ(panel.findChild<QLabel*>("output_supervisor")->property("severity").toInt(), 2);
   EXPECT_EQ(panel.readout("deformation"), QStringLiteral("1.500 mm"));
 }
+
+TEST(OutputPanel, SeriesOfASubResultReachThePlots) {
+  mrsns::test::guiApp();
+  OutputPanel panel;
+  // A step whose deformation figures carry a per-frame error curve and whose
+  // loop reports per-batch latencies: the plots fill from them.
+  const nlohmann::json figures = {{"batches", 4},
+                                  {"loop_latency_ms", {0.2, 0.3, 0.25, 0.4}},
+                                  {"deformation",
+                                   {{"posterior_sd_mean_mm", 1.2},
+                                    {"error_per_frame_mm", {2.6, 2.4, 2.0, 1.7, 1.6}},
+                                    {"error_per_frame_mm_time_s", {0.0, 0.05, 0.1, 0.15, 0.2}}}},
+                                  {"transforms", {{"CTToPatient", {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1}}}}};
+  panel.showStepResult("navigation", "ok", figures);
+  const auto& counts = panel.latencyPlot()->histogramCounts();
+  EXPECT_EQ(std::accumulate(counts.begin(), counts.end(), 0), 4);
+  EXPECT_EQ(panel.deformationPlot()->seriesCount(), 1);
+  EXPECT_EQ(panel.deformationPlot()->pointCount(), 5u);
+  // A matrix is not a curve.
+  EXPECT_EQ(panel.residualPlot()->pointCount(), 0u);
+  EXPECT_EQ(panel.readout("deformation"), QStringLiteral("1.200 mm"));
+}
+
+TEST(OutputPanel, RobotStopBannerShowsTheReasonAndTheTimeUntilCleared) {
+  mrsns::test::guiApp();
+  OutputPanel panel;
+  panel.show();
+  auto* banner = panel.findChild<QLabel*>("navigationBanner");
+  ASSERT_NE(banner, nullptr);
+  EXPECT_FALSE(banner->isVisible());
+  EXPECT_TRUE(panel.robotStopBanner().isEmpty());
+  panel.showRobotStop("tracking lost: PatientToTracker INVALID", "12:00:01.250 (1.25 s after start)");
+  EXPECT_TRUE(banner->isVisible());
+  EXPECT_TRUE(panel.robotStopBanner().contains("PatientToTracker INVALID"));
+  EXPECT_TRUE(panel.robotStopBanner().contains("12:00:01.250"));
+  EXPECT_EQ(panel.findChild<QLabel*>("output_supervisor")->property("severity").toInt(), 2);
+  panel.beginLiveNavigation();  // a new run starts without the old banner
+  EXPECT_FALSE(banner->isVisible());
+  EXPECT_TRUE(panel.robotStopBanner().isEmpty());
+}

@@ -332,7 +332,7 @@ void OutputPanel::headlineFromFigures(const std::string& step, const nlohmann::j
   }
 }
 
-void OutputPanel::plotsFromFigures(const std::string& step, const nlohmann::json& figures) {
+void OutputPanel::plotsFromFigures(const std::string& step, const nlohmann::json& figures, const std::string& prefix) {
   if (!figures.is_object()) return;
   const QString name = QString::fromStdString(step);
   // A figure "<key>_time_s" (or "time_s") of equal length gives the x axis.
@@ -360,8 +360,17 @@ void OutputPanel::plotsFromFigures(const std::string& step, const nlohmann::json
   const QColor palette[] = {kBlue, kOrange, kGreen, kViolet};
   int colour = 0;
   for (auto it = figures.begin(); it != figures.end(); ++it) {
-    const std::string& key = it.key();
-    if (contains(key, "time_s")) continue;
+    const std::string& own_key = it.key();
+    if (contains(own_key, "time_s")) continue;
+    if (it->is_object()) {
+      // Series of a sub-result (e.g. the navigation step's "deformation"),
+      // with that sub-result's own *_time_s beside them.
+      if (own_key != "transforms" && own_key != "simulation_truth") {
+        plotsFromFigures(step, *it, prefix + own_key + ".");
+      }
+      continue;
+    }
+    const std::string key = prefix + own_key;
     const auto y = numbers(*it);
     if (y.empty() && it->is_array() && !it->empty() && (*it)[0].is_object()) {
       // Rows of objects (per target, per path, a lag curve): plot each *_mm
@@ -391,9 +400,9 @@ void OutputPanel::plotsFromFigures(const std::string& step, const nlohmann::json
     } else if (contains(key, "residual")) {
       residualSeries(QString::fromStdString(key), indices(y.size()), y, tr("frame"), kBlue);
     } else if (contains(key, "tissue") || contains(key, "distance")) {
-      distance_plot_->setSeries(name, xFor(key, y.size()), y, kGreen);
+      distance_plot_->setSeries(name, xFor(own_key, y.size()), y, kGreen);
     } else if (contains(key, "deformation") || contains(key, "error_over_time") || contains(key, "model_error")) {
-      deformation_plot_->setSeries(name, xFor(key, y.size()), y, kOrange);
+      deformation_plot_->setSeries(name, xFor(own_key, y.size()), y, kOrange);
     }
   }
 }

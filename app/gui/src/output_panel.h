@@ -58,7 +58,9 @@ class OutputPanel : public QWidget {
  private:
   void setReadout(const QString& key, const QString& text, int severity = 0);
   void headlineFromFigures(const std::string& step, const nlohmann::json& figures);
-  void plotsFromFigures(const std::string& step, const nlohmann::json& figures);
+  /// `prefix` names the sub-result the figures come from ("deformation."):
+  /// series are recognised by their full dotted name.
+  void plotsFromFigures(const std::string& step, const nlohmann::json& figures, const std::string& prefix = {});
 
   std::map<QString, QLabel*> readouts_;
   QLabel* stop_banner_ = nullptr;
