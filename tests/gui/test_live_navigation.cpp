@@ -129,6 +129,12 @@ TEST_F(LiveNavigationTest, TrackerLossStopsTheRobotAndTheOutputAreaSaysWhy) {
   auto* output = window->outputPanel();
   ASSERT_TRUE(mrsns::test::waitUntil([&] { return output->latencyPlot()->histogramCounts().size() > 0; }, 10000))
       << "no loop latency sample in the histogram";
+  // Before the loss the tracked stylus is drawn where the tracker puts it.
+  ASSERT_TRUE(mrsns::test::waitUntil([&] { return window->outputPanel()->readout("tip_to_tissue") != "—"; }, 10000));
+  if (window->displayArea()->hasOpenGlViews()) {
+    const auto live_png = mrsns::test::guiArtifactDir() / "main_window_live_navigation.png";
+    ASSERT_TRUE(window->saveScreenshot(QString::fromStdString(live_png.string()))) << messages();
+  }
 
   auto* banner = window->findChild<QLabel*>("navigationBanner");
   ASSERT_NE(banner, nullptr);
