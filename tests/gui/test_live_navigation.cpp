@@ -111,11 +111,13 @@ TEST_F(LiveNavigationTest, TrackerLossStopsTheRobotAndTheOutputAreaSaysWhy) {
   ASSERT_TRUE(window->openSampleSession()) << messages();
   // The patient reference marker vanishes 1.0 s in, for 1.5 s (the simulated
   // tracker reports it INVALID): the supervisor must stop the robot.
-  mrsns::workflow::DeviceOptions devices;
-  devices.dropout_tool = "PatientToTracker";
-  devices.dropout_start_s = 1.0;
-  devices.dropout_duration_s = 1.5;
-  ASSERT_TRUE(window->startNavigation(devices)) << messages();
+  // The loop's own supervisor (no robot arm): the robot_stopped flag.
+  mrsns::workflow::NavigationOptions options;
+  options.robot.robot = "none";
+  options.devices.dropout_tool = "PatientToTracker";
+  options.devices.dropout_start_s = 1.0;
+  options.devices.dropout_duration_s = 1.5;
+  ASSERT_TRUE(window->startNavigation(options)) << messages();
   EXPECT_TRUE(window->navigating());
   auto* toggle = window->findChild<QPushButton*>("navigationLive");
   ASSERT_NE(toggle, nullptr);
@@ -204,6 +206,57 @@ TEST_F(LiveNavigationTest, TrackerLossStopsTheRobotAndTheOutputAreaSaysWhy) {
   EXPECT_TRUE(recorder_->messages.empty()) << messages();
 }
 
+TEST_F(LiveNavigationTest, WithTheRobotInTheLoopTheSupervisorStopsItAndTheBannerSaysWhy) {
+  if (!haveSample()) GTEST_SKIP() << "no bundled sample session";
+  auto window = makeWindow();
+  ASSERT_TRUE(window->openSampleSession()) << messages();
+  // The simulated UR5 follows the sample's first planned path; the patient
+  // reference is lost 1.5 s in. Watchdog and staleness limits are loosened
+  // so that a test machine's load cannot stop the arm first (the workflow
+  // tests do the same); the loss is what must stop it.
+  mrsns::workflow::NavigationOptions options;
+  options.robot.robot = "simulated";
+  options.robot.max_missed_cycles = 5000;
+  options.robot.max_cycle_time_s = 0.5;
+  options.silence_timeout_s = 1.0;
+  options.devices.dropout_tool = "PatientToTracker";
+  options.devices.dropout_start_s = 1.5;
+  options.devices.dropout_duration_s = 1.0;
+  ASSERT_TRUE(window->startNavigation(options)) << messages();
+  EXPECT_TRUE(window->displayArea()->scene().contains(mrsns::gui::kDrillObject));
+  auto* output = window->outputPanel();
+  QTRY_VERIFY_WITH_TIMEOUT(output->robotStopBanner().contains("PatientToTracker"), 15000);
+  EXPECT_TRUE(output->robotStopBanner().contains("PatientNotTracked")) << output->robotStopBanner().toStdString();
+  // The supervisor's figures follow: the stop latency, then the arm at rest.
+  QTRY_VERIFY_WITH_TIMEOUT(output->robotStopBanner().contains("arm at rest"), 5000);
+  EXPECT_TRUE(output->robotStopBanner().contains("stop sent")) << output->robotStopBanner().toStdString();
+  EXPECT_TRUE(output->navigationStatus().contains("robot Stopped")) << output->navigationStatus().toStdString();
+  EXPECT_TRUE(recorder_->messages.empty()) << messages();
+
+  // Re-arm while the reference is still lost is refused and the banner stays.
+  auto* rearm = window->findChild<QPushButton*>("robotRearm");
+  ASSERT_NE(rearm, nullptr);
+  ASSERT_TRUE(rearm->isEnabled());
+  QTest::mouseClick(rearm, Qt::LeftButton);
+  EXPECT_FALSE(output->robotStopBanner().isEmpty());
+  const auto png = mrsns::test::guiArtifactDir() / "main_window_navigation_supervisor_stop.png";
+  ASSERT_TRUE(window->saveScreenshot(QString::fromStdString(png.string()))) << messages();
+
+  window->stopNavigation();
+  const auto record = window->sessionState()["steps"]["navigation"];
+  const auto& robot = record["figures"]["robot"];
+  EXPECT_EQ(robot["robot"], "simulated");
+  EXPECT_EQ(robot["supervisor_stop"], "PatientNotTracked") << robot.dump();
+  // Nothing moved the arm after the stop.
+  EXPECT_EQ(robot["motion_commands_after_stop"].get<int>(), 0) << robot.dump();
+  // The stop goes out within a few 2 ms control cycles of the lost sample's
+  // arrival (modules/workflow measures ~1 cycle); 100 ms would be a broken feed.
+  ASSERT_TRUE(robot["stop_latency_ms"].is_number()) << robot.dump();
+  EXPECT_LT(robot["stop_latency_ms"].get<double>(), 100.0) << robot.dump();
+  const fs::path recording = fs::path(window->sessionFolder().toStdString()) / record["outputs"][0].get<std::string>();
+  EXPECT_GT(mrsns::io::readSequenceHeader(recording).frames.size(), 0u);
+}
+
 TEST_F(LiveNavigationTest, RefusedWithoutASessionWithAMessageAndTheButtonBackOff) {
   auto window = makeWindow();
   auto* toggle = window->findChild<QPushButton*>("navigationLive");
@@ -215,9 +268,9 @@ TEST_F(LiveNavigationTest, RefusedWithoutASessionWithAMessageAndTheButtonBackOff
   EXPECT_TRUE(recorder_->messages.back().text.contains("session")) << messages();
   // A bad device option is refused before anything runs.
   ASSERT_TRUE(window->createSession(QString::fromStdString((scratch_ / "session").string())));
-  mrsns::workflow::DeviceOptions devices;
-  devices.source = "no-such-tracker";
-  EXPECT_FALSE(window->startNavigation(devices));
+  mrsns::workflow::NavigationOptions options;
+  options.devices.source = "no-such-tracker";
+  EXPECT_FALSE(window->startNavigation(options));
   EXPECT_FALSE(toggle->isChecked());
   ASSERT_EQ(recorder_->messages.size(), 2u);
   EXPECT_TRUE(recorder_->messages.back().text.contains("no-such-tracker")) << messages();

@@ -1,5 +1,6 @@
 #include "live_navigation.h"
 
+#include <QStringList>
 #include <QTimer>
 #include <cmath>
 
@@ -28,7 +29,28 @@ struct ToolView {
   const char* frame;  // tracked frame whose pose in the patient frame places the object
 };
 // The stylus model is drawn in its tip frame, the others in their marker frame.
-constexpr ToolView kTools[] = {{kStylusObject, "StylusTip"}, {kProbeObject, "Probe"}, {kFlangeObject, "Flange"}};
+constexpr ToolView kTools[] = {
+    {kStylusObject, "StylusTip"}, {kProbeObject, "Probe"}, {kFlangeObject, "Flange"}, {kDrillObject, "Drill"}};
+
+nlohmann::json finiteOrNull(double v) {
+  return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr);
+}
+
+/// The supervisor's stop figures (the reason names its stop already), once
+/// the loop has them (robot in the loop only).
+QString stopDetail(const workflow::NavigationStatus& st) {
+  if (st.robot == "none") return {};
+  QStringList parts;
+  if (std::isfinite(st.stop_latency_ms)) {
+    parts << QObject::tr("stop sent %1 ms (%2 cycles) after the loss")
+                 .arg(st.stop_latency_ms, 0, 'f', 2)
+                 .arg(st.stop_latency_cycles);
+  }
+  if (std::isfinite(st.time_to_stop_s)) {
+    parts << QObject::tr("arm at rest %1 ms later").arg(st.time_to_stop_s * 1e3, 0, 'f', 0);
+  }
+  return parts.join(QStringLiteral(" · "));
+}
 
 void pushBounded(std::vector<double>& v, double x) {
   if (v.size() >= kMaxSeries) v.erase(v.begin());
@@ -109,6 +131,7 @@ void LiveNavigation::addTools() {
   scene.setMesh(kProbeObject, rendering::boxMesh(Eigen::Vector3d(-20.0, -8.0, -5.0), Eigen::Vector3d(20.0, 40.0, 5.0)),
                 Eigen::Vector3d(0.45, 0.85, 0.55));
   scene.setTool(kFlangeObject, rendering::ToolKind::EndEffector, Eigen::Vector3d(0.70, 0.72, 0.78));
+  scene.setTool(kDrillObject, rendering::ToolKind::Drill, Eigen::Vector3d(0.85, 0.55, 0.25));
   for (const auto& tool : kTools) scene.setVisible(tool.object, false);  // until tracked
 }
 
@@ -175,15 +198,20 @@ void LiveNavigation::poll() {
   }
   output_->showLiveSample(t, tissue_mm, latency_ms,
                           st.robot_stopped ? tr("robot stopped") : QStringLiteral("ok"));  // the banner says why
+  const QString robot = st.robot == "none" ? QString()
+                                           : tr(" · robot %1 %2, drill depth %3 mm")
+                                                 .arg(QString::fromStdString(st.supervisor_state),
+                                                      QString::fromStdString(st.guidance_phase).toLower())
+                                                 .arg(st.depth_mm, 0, 'f', 1);
   output_->setNavigationStatus(
-      tr("navigating %1 s · %2 batches · %3 frames recorded · tracker %4%5")
+      tr("navigating %1 s · %2 batches · %3 frames recorded · tracker %4%5%6")
           .arg(t, 0, 'f', 1)
           .arg(st.batches)
           .arg(st.frames_recorded)
           .arg(QString::fromUtf8(tracking::toString(st.source.state).data()))
-          .arg(st.recorder_error.empty()
-                   ? QString()
-                   : tr(" · recording failed: %1").arg(QString::fromStdString(st.recorder_error))));
+          .arg(st.recorder_error.empty() ? QString()
+                                         : tr(" · recording failed: %1").arg(QString::fromStdString(st.recorder_error)))
+          .arg(robot));
 
   if (st.robot_stopped && !stop_reported_) {
     stop_reported_ = true;
@@ -193,18 +221,30 @@ void LiveNavigation::poll() {
       if (e.kind == "safety-stop") at_s = e.time_s;
     }
     const QDateTime when = started_.addMSecs(static_cast<qint64>(std::llround(at_s * 1e3)));
-    const QString reason = QString::fromStdString(st.stop_reason);
-    output_->showRobotStop(
-        reason, tr("%1 (%2 s after start)").arg(when.toString(QStringLiteral("HH:mm:ss.zzz"))).arg(at_s, 0, 'f', 2));
-    emit robotStopped(reason, when);
+    stop_reason_ = QString::fromStdString(st.stop_reason);
+    stop_when_ = tr("%1 (%2 s after start)").arg(when.toString(QStringLiteral("HH:mm:ss.zzz"))).arg(at_s, 0, 'f', 2);
+    stop_detail_ = stopDetail(st);
+    output_->showRobotStop(stop_reason_, stop_detail_.isEmpty() ? stop_when_ : stop_when_ + "\n" + stop_detail_);
+    emit robotStopped(stop_reason_, when);
+  } else if (st.robot_stopped && stopDetail(st) != stop_detail_) {
+    // The stop latency and the time to rest arrive after the stop itself.
+    stop_detail_ = stopDetail(st);
+    output_->showRobotStop(stop_reason_, stop_when_ + "\n" + stop_detail_);
   } else if (!st.robot_stopped && stop_reported_) {
     stop_reported_ = false;  // re-armed
     output_->clearRobotStop();
   }
 }
 
-void LiveNavigation::rearm() {
-  if (loop_) loop_->rearm();
+bool LiveNavigation::rearm() {
+  if (!loop_) return false;
+  if (loop_->rearm()) return true;
+  QString why = tr("the supervisor refused");
+  for (const auto& e : loop_->events()) {
+    if (e.kind == "rearm-refused") why = QString::fromStdString(e.message);
+  }
+  emit rearmRefused(why);
+  return false;
 }
 
 workflow::NavigationStatus LiveNavigation::status() const {
@@ -234,6 +274,19 @@ nlohmann::json LiveNavigation::stop() {
                             {"recorder_error", st.recorder_error},
                             {"events", events},
                             {"loop_latency_ms", latency_ms_}};
+  if (st.robot != "none") {
+    figures["robot"] = {{"robot", st.robot},
+                        {"supervisor_state", st.supervisor_state},
+                        {"supervisor_stop", st.supervisor_stop},
+                        {"last_transition", st.last_transition},
+                        {"robot_stops", st.robot_stops},
+                        {"stop_latency_cycles", st.stop_latency_cycles},
+                        {"stop_latency_ms", finiteOrNull(st.stop_latency_ms)},
+                        {"time_to_stop_s", finiteOrNull(st.time_to_stop_s)},
+                        {"motion_commands", st.motion_commands},
+                        {"motion_commands_after_stop", st.motion_commands_after_stop},
+                        {"robot_missed_cycles", st.robot_missed_cycles}};
+  }
   if (locator_) {
     figures["distance_target"] = setup_.distance_target_name;
     figures["tip_to_tissue_mm"] = tissue_mm_;

@@ -52,6 +52,8 @@ struct LiveNavigationSetup {
 inline constexpr const char* kStylusObject = "tool:Stylus";
 inline constexpr const char* kProbeObject = "tool:Probe";
 inline constexpr const char* kFlangeObject = "tool:Flange";
+/// The simulated robot's drill marker (NavigationOptions::robot "simulated").
+inline constexpr const char* kDrillObject = "tool:Drill";
 
 class LiveNavigation : public QObject {
   Q_OBJECT
@@ -69,8 +71,10 @@ class LiveNavigation : public QObject {
   /// Null when it was not running.
   nlohmann::json stop();
   [[nodiscard]] bool running() const { return loop_ != nullptr; }
-  /// The robot may move again once the required transforms are back.
-  void rearm();
+  /// The supervisor's acknowledge: the robot may move again once tracking is
+  /// back (it then waits in Ready). False, with rearmRefused(why), when the
+  /// loop refuses (tracking still lost, arm still moving).
+  bool rearm();
   /// Re-adds the tool objects after the scene was cleared (session reloaded).
   void addTools();
   [[nodiscard]] workflow::NavigationStatus status() const;
@@ -78,6 +82,7 @@ class LiveNavigation : public QObject {
  signals:
   /// Once per robot stop, with the reason and when it happened.
   void robotStopped(const QString& reason, const QDateTime& when);
+  void rearmRefused(const QString& why);
 
  private:
   void poll();
@@ -94,6 +99,7 @@ class LiveNavigation : public QObject {
   QElapsedTimer clock_;
   QDateTime started_;
   bool stop_reported_ = false;
+  QString stop_reason_, stop_when_, stop_detail_;
   std::uint64_t last_batches_ = 0;
   double last_latency_sum_ms_ = 0.0;
   std::vector<double> latency_ms_;

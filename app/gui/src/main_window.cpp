@@ -117,7 +117,9 @@ MainWindow::MainWindow(MainWindowOptions options, QWidget* parent) : QMainWindow
       stopNavigation();
     }
   });
-  connect(function_, &FunctionPanel::robotRearmRequested, live_, &LiveNavigation::rearm);
+  connect(function_, &FunctionPanel::robotRearmRequested, live_, [this] { live_->rearm(); });
+  connect(live_, &LiveNavigation::rearmRefused, this,
+          [this](const QString& why) { statusBar()->showMessage(tr("Re-arm refused: %1").arg(why), 8000); });
   connect(live_, &LiveNavigation::robotStopped, this, [this](const QString& reason, const QDateTime& when) {
     // A status line, never a modal box: the surgeon keeps both hands free.
     statusBar()->showMessage(tr("Robot stopped at %1: %2").arg(when.toString(QStringLiteral("HH:mm:ss")), reason));

@@ -23,7 +23,7 @@ class QDockWidget;
 
 namespace mrsns::workflow {
 class Session;
-struct DeviceOptions;
+struct NavigationOptions;
 }  // namespace mrsns::workflow
 namespace mrsns::tracking {
 class HologramStreamer;
@@ -81,11 +81,16 @@ class MainWindow : public QMainWindow {
   void cancelTask();
   [[nodiscard]] bool taskRunning() const;
 
-  /// Starts live navigation (workflow::NavigationLoop on the simulated
-  /// tracker, or `devices`), recording into the session's navigation/
-  /// folder; false (and a message) without a session or while a task runs.
+  /// Starts live navigation: workflow::NavigationLoop on the simulated
+  /// tracker, with the simulated robot following the session's first planned
+  /// path when the registration has planned one (as the navigation step's
+  /// robot=auto), recording into the session's navigation/ folder; false
+  /// (and a message) without a session or while a task runs.
   bool startNavigation();
-  bool startNavigation(const workflow::DeviceOptions& devices);
+  /// The same with explicit options; the GUI sets `recording`, and the plan
+  /// and patient_T_plan of a "simulated" robot from the session when it has
+  /// planned paths.
+  bool startNavigation(workflow::NavigationOptions options);
   /// Stops it and records the run as the session's "navigation" step.
   void stopNavigation();
   [[nodiscard]] bool navigating() const;

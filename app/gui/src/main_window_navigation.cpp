@@ -18,11 +18,27 @@ bool MainWindow::navigating() const {
   return live_ != nullptr && live_->running();
 }
 
-bool MainWindow::startNavigation() {
-  return startNavigation(workflow::DeviceOptions{});
+namespace {
+
+/// The registration's planned paths (figures.paths), if any.
+const nlohmann::json* plannedPaths(const nlohmann::json& state) {
+  if (!state.contains("steps") || !state["steps"].contains("registration")) return nullptr;
+  const auto& record = state["steps"]["registration"];
+  if (!record.is_object() || record.value("status", "") != "ok" || !record.contains("figures")) return nullptr;
+  const auto& figures = record["figures"];
+  if (!figures.contains("paths") || !figures["paths"].is_array() || figures["paths"].empty()) return nullptr;
+  return &figures["paths"];
 }
 
-bool MainWindow::startNavigation(const workflow::DeviceOptions& devices) {
+}  // namespace
+
+bool MainWindow::startNavigation() {
+  workflow::NavigationOptions options;
+  options.robot.robot = session_ && plannedPaths(session_->state()) ? "simulated" : "none";
+  return startNavigation(options);
+}
+
+bool MainWindow::startNavigation(workflow::NavigationOptions options) {
   if (navigating()) return true;
   if (!session_) {
     function_->setLiveNavigation(false);
@@ -35,10 +51,25 @@ bool MainWindow::startNavigation(const workflow::DeviceOptions& devices) {
     return false;
   }
   LiveNavigationSetup setup;
-  setup.options.devices = devices;
   // The supervisor needs the patient and the probe; other sources may name
   // their tools differently (as the navigation step decides).
-  if (devices.source != "simulated") setup.options.required_transforms.clear();
+  if (options.devices.source != "simulated") options.required_transforms.clear();
+  const auto ct_T_patient = ctFromPatient(session_->state());
+  if (options.robot.robot == "simulated") {
+    if (const auto* paths = plannedPaths(session_->state())) {
+      // The robot follows the first planned path, placed by the registration.
+      const auto& path = (*paths)[0];
+      const auto& e = path["entry_ct"];
+      const auto& t = path["target_ct"];
+      if (e.is_array() && e.size() == 3 && t.is_array() && t.size() == 3) {
+        options.robot.plan.name = path.value("name", "path 1");
+        options.robot.plan.entry = Eigen::Vector3d(e[0].get<double>(), e[1].get<double>(), e[2].get<double>());
+        options.robot.plan.target = Eigen::Vector3d(t[0].get<double>(), t[1].get<double>(), t[2].get<double>());
+        if (ct_T_patient) options.robot.patient_T_plan = ct_T_patient->inverse();
+      }
+    }
+  }
+  setup.options = options;
   try {
     std::filesystem::create_directories(session_->resolve("navigation"));
     std::string name;
@@ -46,7 +77,7 @@ bool MainWindow::startNavigation(const workflow::DeviceOptions& devices) {
       name = "navigation/live_" + std::to_string(n) + ".mhd";
     }
     setup.options.recording = session_->resolve(name);
-    if (const auto ct_T_patient = ctFromPatient(session_->state())) setup.world_T_patient = *ct_T_patient;
+    if (ct_T_patient) setup.world_T_patient = *ct_T_patient;
     // The tip's distance to what the drill must avoid: the vessel, else any soft tissue.
     for (const char* wanted : {"vessel", "tissue:"}) {
       for (const auto& [object, mesh] : meshes_) {
