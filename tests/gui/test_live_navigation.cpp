@@ -274,6 +274,20 @@ TEST_F(LiveNavigationTest, RefusedWithoutASessionWithAMessageAndTheButtonBackOff
   EXPECT_FALSE(toggle->isChecked());
   ASSERT_EQ(recorder_->messages.size(), 2u);
   EXPECT_TRUE(recorder_->messages.back().text.contains("no-such-tracker")) << messages();
+
+  // While navigation records into the session, other work on sessions waits.
+  mrsns::workflow::NavigationOptions ok_options;
+  ok_options.robot.robot = "none";
+  ASSERT_TRUE(window->startNavigation(ok_options)) << messages();
+  EXPECT_TRUE(toggle->isChecked());
+  EXPECT_FALSE(window->openSampleSession());
+  EXPECT_FALSE(window->runStep("registration"));
+  ASSERT_EQ(recorder_->messages.size(), 4u) << messages();
+  EXPECT_TRUE(recorder_->messages.back().text.contains("Stop it first")) << messages();
+  ASSERT_TRUE(mrsns::test::waitUntil([&] { return window->liveNavigation()->status().batches > 0; }, 10000));
+  window->stopNavigation();
+  EXPECT_FALSE(toggle->isChecked());
+  EXPECT_EQ(window->sessionState()["steps"]["navigation"]["status"], "ok");
 }
 
 TEST_F(LiveNavigationTest, SampleSessionOpensWithItsModelsAndThePlannedPathsInView) {

@@ -110,6 +110,8 @@ bool MainWindow::openSession(const QString& folder) {
 }
 
 bool MainWindow::openSampleSession() {
+  // Preparing the copy writes into it: not under a task or a navigation that may be using it.
+  if (refuseWhileBusy(tr("Open the sample session"))) return false;
   QString work = options_.sample_work_folder;
   if (work.isEmpty()) {
     work = QStandardPaths::writableLocation(QStandardPaths::AppDataLocation) + QStringLiteral("/sample-session");
