@@ -108,7 +108,16 @@ MainWindow::MainWindow(MainWindowOptions options, QWidget* parent) : QMainWindow
   connect(function_, &FunctionPanel::runStepRequested, this, [this](const QString& s) { runStep(s); });
   connect(preparation_, &PreparationPanel::importRequested, this, &MainWindow::chooseAndImport);
   connect(preparation_, &PreparationPanel::pivotCalibrationRequested, this, &MainWindow::chooseAndRunPivot);
-  connect(function_, &FunctionPanel::robotStopRequested, this, &MainWindow::cancelTask);
+  connect(function_, &FunctionPanel::robotStopRequested, this, [this] {
+    // During live navigation the loop owns the arm; stopping the loop stops
+    // the arm first (NavigationLoop::stop), then the recording is closed.
+    if (navigating()) {
+      stopNavigation();
+      statusBar()->showMessage(tr("Robot stopped by the operator: live navigation ended"), 8000);
+      return;
+    }
+    cancelTask();
+  });
   live_ = new LiveNavigation(display_, output_, function_, this);
   connect(function_, &FunctionPanel::liveNavigationToggled, this, [this](bool on) {
     if (on) {
