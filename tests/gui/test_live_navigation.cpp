@@ -133,6 +133,8 @@ TEST_F(LiveNavigationTest, TrackerLossStopsTheRobotAndTheOutputAreaSaysWhy) {
       << "no loop latency sample in the histogram";
   // Before the loss the tracked stylus is drawn where the tracker puts it.
   ASSERT_TRUE(mrsns::test::waitUntil([&] { return window->outputPanel()->readout("tip_to_tissue") != "—"; }, 10000));
+  // The simulated sweep's B-mode frames follow the tracked probe.
+  EXPECT_TRUE(mrsns::test::waitUntil([&] { return scene.contains(mrsns::gui::kUltrasoundObject); }, 5000));
   if (window->displayArea()->hasOpenGlViews()) {
     const auto live_png = mrsns::test::guiArtifactDir() / "main_window_live_navigation.png";
     ASSERT_TRUE(window->saveScreenshot(QString::fromStdString(live_png.string()))) << messages();

@@ -1,5 +1,6 @@
 #include "live_deformation.h"
 
+#include <cstring>
 #include <exception>
 
 #include "mrsns/core/log.h"
@@ -54,6 +55,7 @@ void LiveDeformation::onBatch(double time_s) {
       const Eigen::Isometry3d tracker_T_reference(tracked.transforms.at("ReferenceToTracker").matrix);
       const Eigen::Isometry3d model_T_image = tracker_T_reference.inverse() * tracker_T_probe * probe_T_image;
       tracker_->update(model_T_image, sweep_->true_contours[static_cast<std::size_t>(frame)]);
+      last_frame_.store(frame);
     }
     const double error = deformation::meanVertexDistance(tracker_->currentShape(), truth_shape_);
     {
@@ -72,6 +74,21 @@ void LiveDeformation::onBatch(double time_s) {
     next_frame_ = -1;
     tracker_->reset();
   }
+}
+
+bool LiveDeformation::latestImage(ImageVolume& image, Eigen::Matrix4d& probe_T_pixel, int& frame) const {
+  frame = last_frame_.load();
+  if (!ready_.load() || frame < 0) return false;
+  // The sweep is immutable once ready: safe to read beside the loop thread.
+  const auto& sequence = sweep_->sequence;
+  const auto& pixels = sequence.frames[static_cast<std::size_t>(frame)].pixels;
+  image.size = {static_cast<int>(sequence.geometry.size[0]), static_cast<int>(sequence.geometry.size[1]), 1};
+  image.spacing = Eigen::Vector3d::Ones();
+  image.pixel_type = PixelType::UInt8;
+  image.data.resize(pixels.size());
+  std::memcpy(image.data.data(), pixels.data(), pixels.size());
+  probe_T_pixel = sweep_->image_to_probe;
+  return true;
 }
 
 std::vector<DeformationSample> LiveDeformation::takeSamples() {

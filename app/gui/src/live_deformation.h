@@ -16,6 +16,8 @@
 #include <thread>
 #include <vector>
 
+#include "mrsns/core/image.h"
+
 namespace mrsns::deformation {
 struct SimulatedSweep;
 class PosteriorShapeTracker;
@@ -50,6 +52,11 @@ class LiveDeformation {
   /// Samples since the last call (GUI thread).
   std::vector<DeformationSample> takeSamples();
   [[nodiscard]] bool ready() const { return ready_.load(); }
+  /// The B-mode frame last used (GUI thread): an 8-bit slice with pixel
+  /// spacing 1 and probe_T_pixel, the believed calibration mapping pixel
+  /// (i, j, 0, 1) to probe mm. False before the first frame; `frame` says
+  /// which one it is, so a caller can skip a frame it has shown already.
+  bool latestImage(ImageVolume& image, Eigen::Matrix4d& probe_T_pixel, int& frame) const;
   /// Why the simulation could not be built (empty when fine).
   [[nodiscard]] std::string failure() const;
 
@@ -62,6 +69,7 @@ class LiveDeformation {
   Eigen::VectorXd truth_shape_;
   std::uint64_t batches_ = 0;
   int next_frame_ = -1;  // -1: the prior is sampled first
+  std::atomic<int> last_frame_{-1};
   mutable std::mutex mutex_;
   std::vector<DeformationSample> samples_;
   std::string failure_;

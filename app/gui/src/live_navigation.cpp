@@ -156,11 +156,39 @@ void LiveNavigation::moveTools() {
   }
 }
 
+void LiveNavigation::showUltrasound() {
+  if (!deformation_) return;
+  auto& scene = display_->scene();
+  ImageVolume image;
+  Eigen::Matrix4d probe_T_pixel;
+  int frame = -1;
+  const bool have = deformation_->latestImage(image, probe_T_pixel, frame);
+  bool ok = false;
+  const auto& repository = loop_->repository();
+  if (have && repository.hasFrame("Probe") && repository.hasFrame("Patient")) {
+    try {
+      const auto r = repository.getTransform("Probe", "Patient");
+      ok = r.ok();
+      if (ok) {
+        const Eigen::Matrix4d world_T_pixel = (setup_.world_T_patient * r.to_T_from).matrix() * probe_T_pixel;
+        // A frame of the same size reuses the texture; the probe moves every poll.
+        scene.setUltrasoundSlice(kUltrasoundObject, image, world_T_pixel);
+      }
+    } catch (const mrsns::Error&) {
+      ok = false;
+    }
+  }
+  if (scene.contains(kUltrasoundObject)) {
+    scene.setVisible(kUltrasoundObject, ok && function_->layerVisible(DisplayLayer::Ultrasound));
+  }
+}
+
 void LiveNavigation::poll() {
   if (!loop_) return;
   const workflow::NavigationStatus st = loop_->status();
   const double t = static_cast<double>(clock_.elapsed()) * 1e-3;
   moveTools();
+  showUltrasound();
   display_->renderScene();
 
   // Mean loop latency of the batches since the last poll, from the running mean.
@@ -307,6 +335,7 @@ nlohmann::json LiveNavigation::stop() {
   deformation_.reset();
   auto& scene = display_->scene();
   for (const auto& tool : kTools) scene.remove(tool.object);
+  scene.remove(kUltrasoundObject);
   display_->renderScene();
   logger()->info("live navigation stopped: {} batches, {} frames recorded", st.batches, st.frames_recorded);
   return figures;

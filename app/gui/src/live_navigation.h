@@ -52,6 +52,8 @@ struct LiveNavigationSetup {
 inline constexpr const char* kStylusObject = "tool:Stylus";
 inline constexpr const char* kProbeObject = "tool:Probe";
 inline constexpr const char* kFlangeObject = "tool:Flange";
+/// The live ultrasound frame, at the tracked probe.
+inline constexpr const char* kUltrasoundObject = "us:live";
 /// The simulated robot's drill marker (NavigationOptions::robot "simulated").
 inline constexpr const char* kDrillObject = "tool:Drill";
 
@@ -87,6 +89,7 @@ class LiveNavigation : public QObject {
  private:
   void poll();
   void moveTools();
+  void showUltrasound();
 
   DisplayArea* display_;
   OutputPanel* output_;
