@@ -138,6 +138,12 @@ TEST_F(LiveNavigationTest, TrackerLossStopsTheRobotAndTheOutputAreaSaysWhy) {
   if (window->displayArea()->hasOpenGlViews()) {
     const auto live_png = mrsns::test::guiArtifactDir() / "main_window_live_navigation.png";
     ASSERT_TRUE(window->saveScreenshot(QString::fromStdString(live_png.string()))) << messages();
+    // The whole simulated room (fitted view): probe with its US slice, stylus, flange, drill.
+    window->displayArea()->scene().resetCamera();
+    window->displayArea()->renderScene();
+    window->findChild<QWidget*>("view3d")->grab().toImage().save(
+        QString::fromStdString((mrsns::test::guiArtifactDir() / "view3d_live_navigation_room.png").string()));
+    window->displayArea()->resetCamera();
   }
 
   auto* banner = window->findChild<QLabel*>("navigationBanner");
