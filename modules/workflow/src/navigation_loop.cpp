@@ -22,6 +22,8 @@ std::string statusName(TransformStatus s) {
   }
 }
 
+constexpr std::size_t kMaxLatencySamples = 250000;
+
 double wallSeconds() {
   return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
 }
@@ -57,13 +59,7 @@ NavigationLoop::NavigationLoop(NavigationOptions options, std::vector<tracking::
     recorder_ =
         std::make_unique<io::SequenceAppender>(options_.recording, io::SequenceAppender::trackerOnlyLayout(), rec);
   }
-  if (options_.stream_holograms && !models.empty()) {
-    igtlink::ServerOptions server_options;
-    server_options.bind_address = "127.0.0.1";
-    server_options.port = static_cast<std::uint16_t>(options_.hologram_port);
-    server_ = std::make_unique<igtlink::Server>(server_options);
-    streamer_ = std::make_unique<tracking::HologramStreamer>(*server_, repository_, std::move(models));
-  }
+  if (options_.stream_holograms && !models.empty()) streamHolograms(std::move(models), options_.hologram_port);
   for (const auto& name : options_.required_transforms) {
     const auto n = TransformName::parse(name);
     required_.push_back(repository_->prepare(n.from, n.to));
@@ -95,14 +91,49 @@ double NavigationLoop::elapsed() const {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
 }
 
+std::uint16_t NavigationLoop::streamHolograms(std::vector<tracking::HologramModel> models, int port) {
+  if (port < 0 || port > 65535) {
+    throw InvalidArgumentError("navigation: hologram port " + std::to_string(port) +
+                               " is not a TCP port: use 1-65535, or 0 for a free one");
+  }
+  stopHologramStream();
+  igtlink::ServerOptions server_options;
+  server_options.bind_address = options_.hologram_address;
+  server_options.port = static_cast<std::uint16_t>(port);
+  auto server = std::make_unique<igtlink::Server>(server_options);
+  tracking::HologramStreamOptions stream_options;
+  stream_options.forward_transforms = options_.hologram_forward_transforms;
+  // Send-only: nothing a client sends reaches the repository, the supervisor or the robot.
+  auto streamer = std::make_unique<tracking::HologramStreamer>(*server, repository_, std::move(models), stream_options);
+  std::lock_guard stream_lock(stream_mutex_);
+  if (running_) server->start();
+  server_ = std::move(server);
+  streamer_ = std::move(streamer);
+  return running_ ? server_->port() : server_options.port;
+}
+
+void NavigationLoop::stopHologramStream() {
+  std::unique_ptr<igtlink::Server> server;
+  std::unique_ptr<tracking::HologramStreamer> streamer;
+  {
+    std::lock_guard stream_lock(stream_mutex_);
+    server = std::move(server_);
+    streamer = std::move(streamer_);
+  }
+  if (server) server->stop();
+  streamer.reset();
+}
+
 void NavigationLoop::start() {
   if (running_.exchange(true)) return;
   start_ = std::chrono::steady_clock::now();
-  if (server_) server_->start();
+  {
+    std::lock_guard stream_lock(stream_mutex_);
+    if (server_) server_->start();
+  }
   {
     std::lock_guard lock(mutex_);
     status_.running = true;
-    status_.hologram_port = server_ ? server_->port() : 0;
   }
   thread_ = std::thread([this] { run(); });
   source_->start();
@@ -116,7 +147,10 @@ void NavigationLoop::stop() {
   wake_.notify_all();
   if (thread_.joinable()) thread_.join();
   if (robot_) pollRobot();
-  if (server_) server_->stop();
+  {
+    std::lock_guard stream_lock(stream_mutex_);
+    if (server_) server_->stop();
+  }
   std::lock_guard lock(mutex_);
   if (recorder_) {
     recorder_->sync();
@@ -130,6 +164,7 @@ bool NavigationLoop::rearm() {
   if (!robot_) {
     std::lock_guard lock(mutex_);
     status_.robot_stopped = false;
+    status_.operator_stopped = false;
     status_.stop_reason.clear();
     return true;
   }
@@ -138,12 +173,43 @@ bool NavigationLoop::rearm() {
   std::lock_guard lock(mutex_);
   if (ok) {
     status_.robot_stopped = false;
+    status_.operator_stopped = false;
     status_.stop_reason.clear();
     addEvent(elapsed(), "rearmed", "supervisor acknowledged the stop: the robot waits in Ready");
   } else {
     addEvent(elapsed(), "rearm-refused", why);
   }
   return ok;
+}
+
+bool NavigationLoop::stopRobot(const std::string& reason) {
+  const std::string text = "operator: " + (reason.empty() ? std::string("stop requested") : reason);
+  std::string why;
+  if (robot_ && !robot_->operatorStop(why)) {
+    std::lock_guard lock(mutex_);
+    addEvent(elapsed(), "stop-refused", why);
+    return false;
+  }
+  StopHandler handler;
+  {
+    std::lock_guard lock(mutex_);
+    addEvent(elapsed(), "operator-stop", "robot stopped: " + text + "; navigation goes on");
+    // A safety stop already in force keeps its reason: the banner must still say what was lost.
+    if (status_.robot_stopped) return true;
+    status_.robot_stopped = true;
+    status_.operator_stopped = true;
+    status_.stop_reason = text;
+    handler = stop_handler_;
+  }
+  if (handler) {
+    try {
+      handler(text);
+    } catch (const std::exception& e) {
+      std::lock_guard lock(mutex_);
+      addEvent(elapsed(), "stop-handler-error", e.what());
+    }
+  }
+  return true;
 }
 
 bool NavigationLoop::startRobot() {
@@ -234,8 +300,15 @@ void NavigationLoop::process(const std::vector<tracking::ToolUpdate>& batch, dou
       addEvent(arrived_s, "deformation-error", e.what());
     }
   }
-  if (streamer_) {
-    streamer_->update(wallSeconds());
+  bool streamed = false;
+  {
+    std::lock_guard stream_lock(stream_mutex_);
+    if (streamer_) {
+      streamer_->update(wallSeconds());
+      streamed = true;
+    }
+  }
+  if (streamed) {
     std::lock_guard lock(mutex_);
     ++status_.hologram_updates;
   }
@@ -256,6 +329,14 @@ void NavigationLoop::process(const std::vector<tracking::ToolUpdate>& batch, dou
   last_batch_s_ = arrived_s;
   ++status_.batches;
   latency_sum_ms_ += (done - arrived_s) * 1e3;
+  // Bounded (a day at 60 Hz would be 5 M samples): an hour at 60 Hz fits, older batches are thinned.
+  if (latencies_.size() >= kMaxLatencySamples) {
+    std::vector<NavigationLatencySample> thinned;
+    thinned.reserve(kMaxLatencySamples / 2 + 1);
+    for (std::size_t i = 0; i < latencies_.size(); i += 2) thinned.push_back(latencies_[i]);
+    latencies_.swap(thinned);
+  }
+  latencies_.push_back(NavigationLatencySample{arrived_s, (done - arrived_s) * 1e3});
   status_.mean_loop_latency_ms = latency_sum_ms_ / static_cast<double>(status_.batches);
   if (recorder_) {
     status_.frames_recorded = recorder_->framesAppended();
@@ -335,6 +416,7 @@ void NavigationLoop::pollRobot() {
       {
         std::lock_guard lock(mutex_);
         status_.robot_stopped = true;
+        status_.operator_stopped = false;
         status_.stop_reason = reason;
         addEvent(t.time_s, "safety-stop",
                  "robot stopped: " + reason + " (cycle " + std::to_string(t.cycle) + ", " + t.command + ")");
@@ -360,8 +442,17 @@ void NavigationLoop::pollRobot() {
 }
 
 NavigationStatus NavigationLoop::status() const {
+  std::uint16_t port = 0;
+  std::size_t clients = 0;
+  {
+    std::lock_guard stream_lock(stream_mutex_);
+    if (server_ && running_) port = server_->port();
+    if (streamer_) clients = streamer_->readyClients();
+  }
   std::lock_guard lock(mutex_);
   NavigationStatus s = status_;
+  s.hologram_port = port;
+  s.hologram_clients = clients;
   s.source = source_->status();
   if (robot_) robot_->fillStatus(s);
   return s;
@@ -369,6 +460,11 @@ NavigationStatus NavigationLoop::status() const {
 
 std::vector<NavigationRobotTransition> NavigationLoop::robotTransitions() const {
   return robot_ ? robot_->transitions() : std::vector<NavigationRobotTransition>{};
+}
+
+std::vector<NavigationLatencySample> NavigationLoop::latencySeries() const {
+  std::lock_guard lock(mutex_);
+  return latencies_;
 }
 
 std::vector<NavigationEvent> NavigationLoop::events() const {

@@ -209,7 +209,7 @@ void NavigationRobot::onCycle(const robot::CycleReport& report) {
     requests.swap(requests_);
   }
   for (auto& r : requests) r(*control_);
-  if (options_.auto_start && !auto_started_ && trackingGood(cycle_feed_, cycle_start_s_) &&
+  if (options_.auto_start && !auto_started_ && !hold_ && trackingGood(cycle_feed_, cycle_start_s_) &&
       control_->supervisor().state() == robot::SupervisorState::Disabled) {
     auto_started_ = true;
     control_->enable();
@@ -306,14 +306,42 @@ bool NavigationRobot::rearm(std::string& why) {
       return false;
     }
   }
-  if (!post([](robot::ControlLoop& c) { return c.acknowledge(); }, why)) {
-    if (why.empty()) {
-      why = "the supervisor refused to acknowledge: it is not stopped, or the arm still moves (state " +
-            std::string(robot::toString(control_->supervisor().state())) + ")";
-    }
-    return false;
+  const bool held = hold_.load();
+  // After the operator's stop the paused placement resumes; after a safety stop the supervisor
+  // acknowledges and waits in Ready.
+  const auto rearm_request = [held](robot::ControlLoop& c) {
+    const auto state = c.supervisor().state();
+    if (state == robot::SupervisorState::Paused) return c.resume();
+    if (state == robot::SupervisorState::Stopped || state == robot::SupervisorState::Fault) return c.acknowledge();
+    return held;  // operator-held before anything moved: nothing to acknowledge
+  };
+  if (!docked_ && held) {
+    hold_ = false;
+    return true;
   }
-  return true;
+  if (post(rearm_request, why)) {
+    hold_ = false;
+    return true;
+  }
+  if (why.empty()) {
+    why = "the supervisor refused to acknowledge: it is not stopped, or the arm still moves (state " +
+          std::string(robot::toString(control_->supervisor().state())) + ")";
+  }
+  return false;
+}
+
+bool NavigationRobot::operatorStop(std::string& why) {
+  hold_ = true;
+  if (!docked_) return true;  // the arm has not moved yet; the hold keeps it so
+  const bool ok = post(
+      [](robot::ControlLoop& c) {
+        const auto state = c.supervisor().state();
+        if (state == robot::SupervisorState::Aligning || state == robot::SupervisorState::Advancing) return c.pause();
+        return true;  // not commanding motion: Ready, Paused, Stopped, Fault, Disabled
+      },
+      why);
+  if (!ok && why.empty()) why = "the supervisor refused the operator's pause";
+  return ok;
 }
 
 bool NavigationRobot::startPlacement() {

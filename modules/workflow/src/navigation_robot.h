@@ -65,6 +65,10 @@ class NavigationRobot {
   /// Supervisor acknowledge; false with `why` while tracking is lost, the arm moves, or no arm.
   bool rearm(std::string& why);
   bool startPlacement();
+  /// The operator's stop: a moving supervisor pauses (reason Operator, StopJ); in any other state the arm
+  /// is not commanded and the automatic start is held until rearm(). False with `why` when the control
+  /// loop does not answer.
+  bool operatorStop(std::string& why);
   /// Ends the control thread, leaving the arm stopping. Idempotent.
   void stop();
 
@@ -94,7 +98,8 @@ class NavigationRobot {
   std::atomic<bool> docked_{false};
   std::atomic<bool> stopping_{false};
   std::atomic<bool> quit_{false};
-  std::mutex thread_mutex_;  // docking (loop thread) against stop() (caller's thread)
+  std::atomic<bool> hold_{false};  // the operator stopped: no automatic start until rearm()
+  std::mutex thread_mutex_;        // docking (loop thread) against stop() (caller's thread)
   std::thread thread_;
 
   mutable std::mutex feed_mutex_;  // guards feed_, loss_onset_s_

@@ -115,8 +115,21 @@ struct NavigationOptions {
   /// free port) when models are given.
   bool stream_holograms = false;
   int hologram_port = 0;
+  /// Where the hologram server listens: the local machine unless the user
+  /// names an interface (an HMD on the network).
+  std::string hologram_address = "127.0.0.1";
+  /// Tracked transforms also streamed under their own names ("StylusToTracker"), so a client sees the
+  /// tools move before an HMD calibration places the models (HologramStreamOptions::forward_transforms).
+  std::vector<std::string> hologram_forward_transforms;
   /// The scene callback runs at most this often.
   double scene_rate_hz = 30.0;
+};
+
+/// One processed tracking batch: when it arrived (loop clock) and how long recording, supervising and
+/// streaming it took.
+struct NavigationLatencySample {
+  double time_s = 0.0;
+  double latency_ms = 0.0;
 };
 
 struct NavigationEvent {
@@ -133,7 +146,9 @@ struct NavigationStatus {
   std::uint64_t scene_updates = 0;
   std::uint64_t deformation_updates = 0;
   std::uint64_t hologram_updates = 0;
-  std::uint16_t hologram_port = 0;
+  std::uint16_t hologram_port = 0;   ///< 0: not streaming
+  std::size_t hologram_clients = 0;  ///< clients that have the models and get the transforms
+  bool operator_stopped = false;     ///< the last stop was the operator's (stopRobot), navigation goes on
   bool robot_stopped = false;
   std::string stop_reason;
   std::string recorder_error;
@@ -198,11 +213,24 @@ class NavigationLoop {
   /// Starts (again) the placement along the plan: supervisor Ready -> Aligning. False without a robot,
   /// before docking, or when the supervisor refuses.
   bool startRobot();
+  /// The operator's stop: the robot stops through its supervisor (robot::ControlLoop::pause, reason
+  /// Operator: StopJ, the arm decelerates to rest and gets no motion command until re-armed) while tracking,
+  /// recording, streaming and deformation go on. Without a robot it marks the stop, as a tracking stop does.
+  /// False when the supervisor refused (already stopped) or the control loop did not answer.
+  bool stopRobot(const std::string& reason);
+  /// Serves `models` (and hologram_forward_transforms) from this loop's repository on
+  /// options.hologram_address:port (0: a free port) while the loop runs; replaces a running stream.
+  /// Returns the port. Throws like igtlink::Server (port in use) and HologramStreamer (bad models).
+  std::uint16_t streamHolograms(std::vector<tracking::HologramModel> models, int port);
+  /// Ends the hologram stream (clients are disconnected); navigation goes on. Idempotent.
+  void stopHologramStream();
   /// Simulated tracker failure: stops the tracking source while the loop and the robot keep running.
   void killTracker();
 
   [[nodiscard]] NavigationStatus status() const;
   [[nodiscard]] std::vector<NavigationEvent> events() const;
+  /// Every processed batch's loop latency (the step's and the GUI's latency plots).
+  [[nodiscard]] std::vector<NavigationLatencySample> latencySeries() const;
   /// The supervisor's transition log (empty without a robot).
   [[nodiscard]] std::vector<NavigationRobotTransition> robotTransitions() const;
 
@@ -221,6 +249,7 @@ class NavigationLoop {
   std::unique_ptr<io::SequenceAppender> recorder_;
   std::unique_ptr<igtlink::Server> server_;
   std::unique_ptr<tracking::HologramStreamer> streamer_;
+  mutable std::mutex stream_mutex_;  // guards server_, streamer_ (the GUI may start or end the stream any time)
   SceneCallback scene_;
   DeformationHook deformation_;
   StopHandler stop_handler_;
@@ -237,6 +266,7 @@ class NavigationLoop {
   std::vector<NavigationEvent> events_;
   NavigationStatus status_;
   double latency_sum_ms_ = 0.0;
+  std::vector<NavigationLatencySample> latencies_;
   double last_batch_s_ = -1.0;
   double last_scene_s_ = -1.0;
   std::atomic<bool> running_{false};
