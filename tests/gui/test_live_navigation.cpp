@@ -265,23 +265,6 @@ TEST_F(LiveNavigationTest, WithTheRobotInTheLoopTheSupervisorStopsItAndTheBanner
   EXPECT_GT(mrsns::io::readSequenceHeader(recording).frames.size(), 0u);
 }
 
-TEST_F(LiveNavigationTest, StopRobotEndsTheNavigationThatDrivesTheArm) {
-  if (!haveSample()) GTEST_SKIP() << "no bundled sample session";
-  auto window = makeWindow();
-  ASSERT_TRUE(window->openSampleSession()) << messages();
-  // The button's default: the sample has planned paths, so the arm is in the loop.
-  QTest::mouseClick(window->findChild<QPushButton*>("navigationLive"), Qt::LeftButton);
-  ASSERT_TRUE(window->navigating()) << messages();
-  ASSERT_TRUE(mrsns::test::waitUntil([&] { return window->liveNavigation()->status().robot_docked; }, 10000))
-      << "the simulated arm never docked";
-  EXPECT_EQ(window->liveNavigation()->status().robot, "simulated");
-  QTest::mouseClick(window->findChild<QPushButton*>("robotStop"), Qt::LeftButton);
-  EXPECT_FALSE(window->navigating());
-  const auto record = window->sessionState()["steps"]["navigation"];
-  EXPECT_EQ(record["figures"]["robot"]["motion_commands_after_stop"].get<int>(), 0) << record.dump();
-  EXPECT_TRUE(recorder_->messages.empty()) << messages();
-}
-
 TEST_F(LiveNavigationTest, RefusedWithoutASessionWithAMessageAndTheButtonBackOff) {
   auto window = makeWindow();
   auto* toggle = window->findChild<QPushButton*>("navigationLive");

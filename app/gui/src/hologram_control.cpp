@@ -1,11 +1,15 @@
 // MainWindow's hologram stream (function area, MR): the session's models
 // served to HMD clients over OpenIGTLink by tracking::HologramStreamer, on
-// 127.0.0.1, updated from a GUI timer.
+// 127.0.0.1. One stream at a time: during live navigation the navigation
+// loop serves it from its repository on every tracking batch (the tools'
+// poses reach the HMD without waiting for the GUI thread); otherwise the
+// window serves the models, updated from a GUI timer.
 #include <QTimer>
 #include <chrono>
 #include <set>
 
 #include "function_panel.h"
+#include "live_navigation.h"
 #include "main_window.h"
 #include "message_presenter.h"
 #include "mrsns/core/error.h"
@@ -36,21 +40,47 @@ double nowSeconds() {
 
 }  // namespace
 
-bool MainWindow::startHologramStream(int port) {
-  stopHologramStream();
+std::vector<tracking::HologramModel> MainWindow::hologramModels() const {
   std::vector<tracking::HologramModel> models;
   std::set<std::string> used;
   for (const auto& [name, mesh] : meshes_) {
     if (mesh.empty()) continue;
     models.push_back(tracking::HologramModel{deviceName(name, used), mesh, mesh.frame.empty() ? "Preop" : mesh.frame});
   }
-  if (models.empty()) {
+  return models;
+}
+
+bool MainWindow::startHologramStream(int port) {
+  stopHologramStream();
+  if (hologramModels().empty()) {
     function_->setStreaming(false, tr("off"));
     presenter_->present(UserMessage{MessageKind::Error, tr("Hologram stream"),
                                     tr("The session has no models to stream. Open a session with meshes or import "
                                        "one (Ctrl+M) first.")});
     return false;
   }
+  if (navigating()) {
+    try {
+      hologram_port_ = live_->streamHolograms(hologramModels(), port);
+    } catch (const mrsns::Error& e) {
+      function_->setStreaming(false, tr("off"));
+      presenter_->present(
+          UserMessage{MessageKind::Error, tr("Hologram stream"),
+                      QString::fromStdString(e.what()) + tr("\nChoose another port if this one is in use.")});
+      return false;
+    }
+    function_->setStreaming(true,
+                            tr("serving the live navigation on 127.0.0.1:%1, waiting for the HMD").arg(hologram_port_));
+    return true;
+  }
+  if (!startWindowStream(port)) return false;
+  // The bound port (port 0 picks one): navigation takes the stream over on it.
+  hologram_port_ = stream_server_->port();
+  return true;
+}
+
+bool MainWindow::startWindowStream(int port) {
+  auto models = hologramModels();
   try {
     igtlink::ServerOptions options;
     options.bind_address = "127.0.0.1";
@@ -70,6 +100,7 @@ bool MainWindow::startHologramStream(int port) {
   }
   auto* timer = new QTimer(this);
   timer->setObjectName(QStringLiteral("hologramTimer"));
+  port = stream_server_->port();
   connect(timer, &QTimer::timeout, this, [this, port] {
     if (!streamer_) return;
     streamer_->update(nowSeconds());
@@ -81,6 +112,12 @@ bool MainWindow::startHologramStream(int port) {
 }
 
 void MainWindow::stopHologramStream() {
+  hologram_port_ = 0;
+  if (live_) live_->stopHologramStream();
+  stopWindowStream();
+}
+
+void MainWindow::stopWindowStream() {
   if (auto* timer = findChild<QTimer*>(QStringLiteral("hologramTimer"))) {
     timer->stop();
     timer->deleteLater();

@@ -84,7 +84,19 @@ LiveNavigation::~LiveNavigation() {
 
 void LiveNavigation::start(const LiveNavigationSetup& setup) {
   stop();
-  auto loop = std::make_unique<workflow::NavigationLoop>(setup.options);
+  workflow::NavigationOptions options = setup.options;
+  if (options.hologram_forward_transforms.empty() && options.devices.source == "simulated") {
+    // The HMD (or a Slicer client) sees the tracked tools move even before an
+    // HMD calibration places the models in its hologram frame.
+    options.hologram_forward_transforms = workflow::simulatedToolNames();
+    if (options.robot.robot != "none") options.hologram_forward_transforms.push_back(options.robot.tool_transform);
+  }
+  auto loop = std::make_unique<workflow::NavigationLoop>(options);
+  // The models live in the CT (Preop) frame; the registration places it in the patient frame.
+  if (!setup.world_T_patient.isApprox(Eigen::Isometry3d::Identity())) {
+    loop->repository().setTransform("Preop", "Patient", setup.world_T_patient.inverse(), TransformStatus::Ok,
+                                    std::numeric_limits<double>::quiet_NaN(), true);
+  }
   if (setup.options.devices.source == "simulated") {
     Eigen::Isometry3d stylus_T_tip = Eigen::Isometry3d::Identity();
     stylus_T_tip.translation() = kSimulatedStylusTip;
@@ -241,6 +253,11 @@ void LiveNavigation::poll() {
                                          : tr(" · recording failed: %1").arg(QString::fromStdString(st.recorder_error)))
           .arg(robot));
 
+  if (st.hologram_port != 0) {
+    function_->setStreaming(
+        true,
+        tr("serving %1 clients on 127.0.0.1:%2 with the live tracking").arg(st.hologram_clients).arg(st.hologram_port));
+  }
   if (st.robot_stopped && !stop_reported_) {
     stop_reported_ = true;
     // The supervisor's event carries when (since start) the stop happened.
@@ -273,6 +290,22 @@ bool LiveNavigation::rearm() {
   }
   emit rearmRefused(why);
   return false;
+}
+
+bool LiveNavigation::stopRobot(const QString& reason) {
+  if (!loop_) return false;
+  const bool ok = loop_->stopRobot(reason.toStdString());
+  poll();  // the banner at once, not at the next tick
+  return ok;
+}
+
+std::uint16_t LiveNavigation::streamHolograms(std::vector<tracking::HologramModel> models, int port) {
+  if (!loop_) return 0;
+  return loop_->streamHolograms(std::move(models), port);
+}
+
+void LiveNavigation::stopHologramStream() {
+  if (loop_) loop_->stopHologramStream();
 }
 
 workflow::NavigationStatus LiveNavigation::status() const {

@@ -77,6 +77,15 @@ class LiveNavigation : public QObject {
   /// back (it then waits in Ready). False, with rearmRefused(why), when the
   /// loop refuses (tracking still lost, arm still moving).
   bool rearm();
+  /// The operator's stop (the "Stop robot" button): the arm stops through
+  /// its supervisor, navigation (tracking, recording, plots) goes on; Re-arm
+  /// lets it move again. False when not running or the loop refused.
+  bool stopRobot(const QString& reason);
+  /// Hands the hologram stream to the running loop (its repository, the
+  /// tracked tools forwarded); returns the port. Throws like
+  /// NavigationLoop::streamHolograms; false-y (0) when not running.
+  std::uint16_t streamHolograms(std::vector<tracking::HologramModel> models, int port);
+  void stopHologramStream();
   /// Re-adds the tool objects after the scene was cleared (session reloaded).
   void addTools();
   [[nodiscard]] workflow::NavigationStatus status() const;

@@ -109,11 +109,15 @@ MainWindow::MainWindow(MainWindowOptions options, QWidget* parent) : QMainWindow
   connect(preparation_, &PreparationPanel::importRequested, this, &MainWindow::chooseAndImport);
   connect(preparation_, &PreparationPanel::pivotCalibrationRequested, this, &MainWindow::chooseAndRunPivot);
   connect(function_, &FunctionPanel::robotStopRequested, this, [this] {
-    // During live navigation the loop owns the arm; stopping the loop stops
-    // the arm first (NavigationLoop::stop), then the recording is closed.
+    // During live navigation the loop owns the arm: it stops through the
+    // supervisor while tracking, recording and the plots go on; Re-arm
+    // lets it move again.
     if (navigating()) {
-      stopNavigation();
-      statusBar()->showMessage(tr("Robot stopped by the operator: live navigation ended"), 8000);
+      if (live_->stopRobot(tr("Stop robot button"))) {
+        statusBar()->showMessage(tr("Robot stopped by the operator: navigation goes on; Re-arm to continue"), 8000);
+      } else {
+        statusBar()->showMessage(tr("The robot's supervisor did not take the stop: end the navigation to stop it"));
+      }
       return;
     }
     cancelTask();

@@ -10,6 +10,7 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <vector>
 
 #include "mrsns/core/mesh.h"
 #include "preparation_panel.h"
@@ -27,7 +28,8 @@ struct NavigationOptions;
 }  // namespace mrsns::workflow
 namespace mrsns::tracking {
 class HologramStreamer;
-}
+struct HologramModel;
+}  // namespace mrsns::tracking
 namespace mrsns::igtlink {
 class Server;
 }
@@ -96,9 +98,14 @@ class MainWindow : public QMainWindow {
   [[nodiscard]] bool navigating() const;
   LiveNavigation* liveNavigation() const { return live_; }
 
+  /// Serves the session's models to HMD clients on 127.0.0.1:port. While
+  /// live navigation runs the navigation loop serves them, from its own
+  /// repository, with the tracked tools' transforms (one stream, send-only:
+  /// nothing a client sends reaches the loop or the robot); otherwise the
+  /// window serves the models alone.
   bool startHologramStream(int port);
   void stopHologramStream();
-  [[nodiscard]] bool hologramStreaming() const { return streamer_ != nullptr; }
+  [[nodiscard]] bool hologramStreaming() const { return hologram_port_ != 0; }
 
   /// Renders the whole window (3D view included) into a PNG.
   bool saveScreenshot(const QString& png);
@@ -161,6 +168,10 @@ class MainWindow : public QMainWindow {
   QMenu* recent_menu_ = nullptr;
   std::unique_ptr<igtlink::Server> stream_server_;
   std::unique_ptr<tracking::HologramStreamer> streamer_;
+  int hologram_port_ = 0;  // the stream the user asked for (0: off), kept across navigation start/stop
+  bool startWindowStream(int port);
+  void stopWindowStream();
+  [[nodiscard]] std::vector<tracking::HologramModel> hologramModels() const;
 };
 
 /// The style sheet of the workstation (dark, high contrast read-outs).

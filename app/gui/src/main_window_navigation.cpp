@@ -88,8 +88,26 @@ bool MainWindow::startNavigation(workflow::NavigationOptions options) {
         }
       }
     }
+    // One hologram stream: the window's hands its port to the loop, which
+    // serves the same models with the live transforms.
+    if (hologram_port_ != 0) {
+      stopWindowStream();
+      setup.options.stream_holograms = false;  // started below, once the loop runs
+    }
     live_->start(setup);
     live_recording_ = name;
+    if (hologram_port_ != 0) {
+      try {
+        live_->streamHolograms(hologramModels(), hologram_port_);
+        function_->setStreaming(true, tr("serving the live navigation on 127.0.0.1:%1").arg(hologram_port_));
+      } catch (const mrsns::Error& e) {
+        hologram_port_ = 0;
+        function_->setStreaming(false, tr("off"));
+        presentError(tr("Hologram stream"),
+                     QString::fromStdString(e.what()) + tr("\nNavigation runs without it; choose another port and "
+                                                           "switch the stream on again."));
+      }
+    }
   } catch (const mrsns::Error& e) {
     function_->setLiveNavigation(false);
     presentError(tr("Cannot start navigation"), QString::fromStdString(e.what()));
@@ -113,6 +131,8 @@ void MainWindow::stopNavigation() {
   if (!navigating()) return;
   const nlohmann::json figures = live_->stop();
   function_->setLiveNavigation(false);
+  // The stream goes on without the loop: the window serves the models again.
+  if (hologram_port_ != 0 && !startWindowStream(hologram_port_)) hologram_port_ = 0;
   preparation_->setBusy(false);
   function_->setBusy(false);
   const bool ok = figures.value("batches", 0) > 0 && figures.value("recorder_error", std::string()).empty();
