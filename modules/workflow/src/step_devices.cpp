@@ -6,6 +6,9 @@
 #include <thread>
 
 #include "mrsns/deformation/deformation_trial.h"
+#include "mrsns/deformation/shape_model_ops.h"
+#include "mrsns/deformation/shape_tracker.h"
+#include "mrsns/deformation/simulated_sweep.h"
 #include "mrsns/io/sequence_file.h"
 #include "mrsns/workflow/navigation.h"
 #include "step_internal.h"
@@ -45,6 +48,52 @@ void waitWhile(double seconds, double from, double to, const std::string& messag
     if (context.cancelled()) throw Cancelled{};
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
+}
+
+// The GUI's plots want series, not every batch: an hour at 60 Hz would be a 200k-point JSON figure.
+constexpr std::size_t kMaxSeriesPoints = 2000;
+
+/// Every k-th latency sample (k chosen so at most kMaxSeriesPoints remain): a uniform thinning keeps the
+/// histogram's shape; the mean and the maximum gap are reported from every batch separately.
+void addLatencySeries(const std::vector<NavigationLatencySample>& samples, Json& figures) {
+  const std::size_t stride = std::max<std::size_t>(1, (samples.size() + kMaxSeriesPoints - 1) / kMaxSeriesPoints);
+  std::vector<double> time_s, latency_ms;
+  for (std::size_t i = 0; i < samples.size(); i += stride) {
+    time_s.push_back(samples[i].time_s);
+    latency_ms.push_back(samples[i].latency_ms);
+  }
+  figures["loop_latency_ms"] = latency_ms;
+  figures["loop_latency_ms_time_s"] = time_s;
+  figures["loop_latency_decimation"] = stride;
+}
+
+/// The soft-tissue error over one sweep (the trial's first case): after each frame, the mean vertex distance
+/// of the posterior shape to the held-out truth, at the frame's time since the sweep began (-1: the prior,
+/// at 0 s). What the GUI's deformation plot shows for a live run, from the same simulation.
+void addDeformationSeries(const deformation::DeformationTrialOptions& trial, std::uint64_t seed, Json& deformation) {
+  const auto sweep = deformation::simulateSweep(trial, seed);
+  deformation::ShapeTrackerOptions tracker_options = trial.tracker;
+  tracker_options.posterior.noise_sigma_mm = trial.noise_sigma_mm;
+  deformation::PosteriorShapeTracker tracker(sweep.model, tracker_options);
+  const Eigen::VectorXd truth = deformation::shapeVector(sweep.truth.vertices);
+  // Algorithm 1 works in image mm: the believed calibration without its pixel scale.
+  Eigen::Matrix4d unscale = Eigen::Matrix4d::Identity();
+  unscale.diagonal().head<3>().setConstant(1.0 / sweep.pixel_spacing_mm);
+  const Eigen::Isometry3d probe_T_image(sweep.image_to_probe * unscale);
+  const auto& frames = sweep.sequence.frames;
+  const double t0 = frames.empty() ? 0.0 : frames.front().timestamp;
+  std::vector<double> time_s{0.0}, error_mm{deformation::meanVertexDistance(tracker.currentShape(), truth)};
+  for (std::size_t f = 0; f < frames.size() && f < sweep.true_contours.size(); ++f) {
+    const Eigen::Isometry3d tracker_T_probe(frames[f].transforms.at("ProbeToTracker").matrix);
+    const Eigen::Isometry3d tracker_T_reference(frames[f].transforms.at("ReferenceToTracker").matrix);
+    tracker.update(tracker_T_reference.inverse() * tracker_T_probe * probe_T_image, sweep.true_contours[f]);
+    time_s.push_back(frames[f].timestamp - t0);
+    error_mm.push_back(deformation::meanVertexDistance(tracker.currentShape(), truth));
+  }
+  deformation["error_mm"] = error_mm;
+  deformation["error_mm_time_s"] = time_s;
+  deformation["error_definition"] =
+      "case 1: mean vertex distance of the posterior shape to the held-out truth after each frame (first: prior)";
 }
 
 }  // namespace
@@ -194,6 +243,8 @@ StepResult runNavigation(Session& session, const Json& params, const StepContext
                    // Paper 001 Table I (phantom): posterior E^SD and E^FP.
                    {"paper_posterior_sd_mean_mm", 1.52},
                    {"paper_posterior_fp_mm", 2.19}};
+    checkCancel(context);
+    addDeformationSeries(trial, options.devices.seed, deformation);
   }
   std::size_t recorded_frames = 0;
   if (!options.recording.empty()) {
@@ -212,6 +263,7 @@ StepResult runNavigation(Session& session, const Json& params, const StepContext
                     {"stop_reason", stop_reason},
                     {"events", events},
                     {"deformation", deformation}};
+  addLatencySeries(loop.latencySeries(), result.figures);
   if (options.robot.robot != "none") {
     result.figures["robot"] = navigationRobotFigures(options, st, loop.robotTransitions());
     result.figures["time_to_stop_s"] = result.figures["robot"]["time_to_stop_s"];
