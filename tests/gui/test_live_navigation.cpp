@@ -149,7 +149,8 @@ TEST_F(LiveNavigationTest, TrackerLossStopsTheRobotAndTheOutputAreaSaysWhy) {
   auto* banner = window->findChild<QLabel*>("navigationBanner");
   ASSERT_NE(banner, nullptr);
   EXPECT_FALSE(banner->isVisible());
-  QTRY_VERIFY_WITH_TIMEOUT(output->robotStopBanner().contains("PatientToTracker"), 15000);
+  ASSERT_TRUE(mrsns::test::waitUntil([&] { return output->robotStopBanner().contains("PatientToTracker"); }, 15000))
+      << output->robotStopBanner().toStdString();
   EXPECT_TRUE(banner->isVisible());
   const QString text = output->robotStopBanner();
   EXPECT_TRUE(text.contains("ROBOT STOPPED")) << text.toStdString();
@@ -233,10 +234,12 @@ TEST_F(LiveNavigationTest, WithTheRobotInTheLoopTheSupervisorStopsItAndTheBanner
   ASSERT_TRUE(window->startNavigation(options)) << messages();
   EXPECT_TRUE(window->displayArea()->scene().contains(mrsns::gui::kDrillObject));
   auto* output = window->outputPanel();
-  QTRY_VERIFY_WITH_TIMEOUT(output->robotStopBanner().contains("PatientToTracker"), 15000);
+  ASSERT_TRUE(mrsns::test::waitUntil([&] { return output->robotStopBanner().contains("PatientToTracker"); }, 15000))
+      << output->robotStopBanner().toStdString();
   EXPECT_TRUE(output->robotStopBanner().contains("PatientNotTracked")) << output->robotStopBanner().toStdString();
   // The supervisor's figures follow: the stop latency, then the arm at rest.
-  QTRY_VERIFY_WITH_TIMEOUT(output->robotStopBanner().contains("arm at rest"), 5000);
+  ASSERT_TRUE(mrsns::test::waitUntil([&] { return output->robotStopBanner().contains("arm at rest"); }, 5000))
+      << output->robotStopBanner().toStdString();
   EXPECT_TRUE(output->robotStopBanner().contains("stop sent")) << output->robotStopBanner().toStdString();
   EXPECT_TRUE(output->navigationStatus().contains("robot Stopped")) << output->navigationStatus().toStdString();
   EXPECT_TRUE(recorder_->messages.empty()) << messages();
