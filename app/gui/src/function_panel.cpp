@@ -29,14 +29,18 @@ FunctionPanel::FunctionPanel(QWidget* parent) : QWidget(parent) {
   connect(live_, &QPushButton::toggled, this, &FunctionPanel::liveNavigationToggled);
   rearm_ = new QPushButton(tr("Re-arm"), navigation_);
   rearm_->setObjectName(QStringLiteral("robotRearm"));
-  rearm_->setToolTip(tr("Let the robot move again once tracking is back (it stops again at once if not)"));
+  rearm_->setToolTip(
+      tr("Let the robot move again once tracking is back (it stops again at once if not); after Stop robot, "
+         "resume the placement"));
   rearm_->setEnabled(false);
   connect(rearm_, &QPushButton::clicked, this, &FunctionPanel::robotRearmRequested);
   stop_ = new QPushButton(tr("Stop robot"), navigation_);
   auto* stop = stop_;
   stop->setObjectName(QStringLiteral("robotStop"));
   stop->setProperty("danger", true);
-  stop->setToolTip(tr("Cancels the running robot task; the supervisor halts the arm (Esc)"));
+  stop->setToolTip(
+      tr("During live navigation: the supervisor stops the arm, navigation goes on (Re-arm resumes). "
+         "Otherwise cancels the running robot task (Esc)"));
   // Live navigation and re-arm share a row: the function strip stays short.
   live_row_ = new QWidget(navigation_);
   auto* live_layout = new QHBoxLayout(live_row_);
