@@ -208,11 +208,12 @@ struct Server::Impl : std::enable_shared_from_this<Server::Impl> {
     }
   };
 
-  explicit Impl(ServerOptions o) : options(std::move(o)), acceptor(io) {}
+  explicit Impl(ServerOptions o) : options(std::move(o)), acceptor(io), accept_retry(io) {}
 
   ServerOptions options;
   asio::io_context io;
   asio::ip::tcp::acceptor acceptor;
+  asio::steady_timer accept_retry;  // back-off after a failed accept (e.g. out of file descriptors)
   std::thread thread;
   std::atomic<bool> is_running{false};
   std::uint16_t bound_port = 0;
@@ -231,7 +232,15 @@ struct Server::Impl : std::enable_shared_from_this<Server::Impl> {
   void accept() {
     acceptor.async_accept([self = shared_from_this()](const asio::error_code& ec, asio::ip::tcp::socket socket) {
       if (ec) {
-        if (ec != asio::error::operation_aborted) self->accept();
+        // Closed by stop(): done. Anything else (no file descriptor left,
+        // a connection reset before it was taken) is retried after a pause:
+        // at once, a closed acceptor or a process out of descriptors would
+        // fail again at once and spin the I/O thread forever.
+        if (ec == asio::error::operation_aborted || !self->acceptor.is_open()) return;
+        self->accept_retry.expires_after(std::chrono::milliseconds(20));
+        self->accept_retry.async_wait([self](const asio::error_code& wait_ec) {
+          if (!wait_ec && self->acceptor.is_open()) self->accept();
+        });
         return;
       }
       std::shared_ptr<Session> session;
@@ -328,6 +337,7 @@ void Server::stop() {
   asio::post(impl_->io, [impl = impl_] {
     asio::error_code ignored;
     impl->acceptor.close(ignored);
+    impl->accept_retry.cancel();
     for (auto& session : impl->snapshot()) session->close();
   });
   // Closing cancels every pending operation, so run() returns.
