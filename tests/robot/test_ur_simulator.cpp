@@ -4,9 +4,11 @@
 #include <gtest/gtest.h>
 #include <netinet/in.h>
 #include <netinet/tcp.h>
+#include <sys/resource.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <chrono>
 #include <fstream>
 #include <thread>
@@ -91,6 +93,39 @@ std::vector<std::string> listeningAddresses(std::uint16_t port) {
     if (state == "0A" && local.size() > 9 && local.substr(9) == want) out.push_back(local.substr(0, 8));
   }
   return out;
+}
+
+// An accept that fails (here: the process is out of file descriptors while a
+// client connects) must not end the listening: once descriptors are free
+// again, the next client is served.
+TEST(UrSimulator, KeepsAcceptingAfterAFailedAccept) {
+  UrSimulator sim(ephemeral());
+  const std::uint16_t port = sim.dashboardPort();
+  rlimit original{};
+  ASSERT_EQ(::getrlimit(RLIMIT_NOFILE, &original), 0);
+  // Fill the descriptor table under a lowered limit, then free one slot: the
+  // client's socket takes it and the simulator's accept finds none.
+  rlimit lowered = original;
+  lowered.rlim_cur = std::min<rlim_t>(original.rlim_cur, 256);
+  ASSERT_EQ(::setrlimit(RLIMIT_NOFILE, &lowered), 0);
+  std::vector<int> filler;
+  for (int fd = ::dup(0); fd >= 0; fd = ::dup(0)) filler.push_back(fd);
+  ASSERT_FALSE(filler.empty());
+  ::close(filler.back());
+  filler.pop_back();
+  const int client = ::socket(AF_INET, SOCK_STREAM, 0);
+  ASSERT_GE(client, 0);
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  a.sin_port = htons(port);
+  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  EXPECT_EQ(::connect(client, reinterpret_cast<sockaddr*>(&a), sizeof a), 0);  // the kernel completes it
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));                 // the accept fails meanwhile
+  ::close(client);
+  for (const int fd : filler) ::close(fd);
+  ASSERT_EQ(::setrlimit(RLIMIT_NOFILE, &original), 0);
+  DashboardClient dashboard({"127.0.0.1", port, 2.0});
+  EXPECT_EQ(dashboard.robotMode(), UrRobotMode::Running);
 }
 
 }  // namespace

@@ -266,7 +266,17 @@ struct UrSimulator::Impl {
 
   void accept(Kind kind, asio::ip::tcp::acceptor& acceptor) {
     acceptor.async_accept([this, kind, &acceptor](const asio::error_code& ec, asio::ip::tcp::socket socket) {
-      if (ec) return;  // acceptor closed
+      if (ec) {
+        if (ec == asio::error::operation_aborted || !acceptor.is_open()) return;  // stopped
+        // A client that resets before its connection is taken (or a process
+        // out of descriptors) fails one accept: keep listening, after a
+        // pause so a persistent error cannot spin the I/O thread.
+        auto pause = std::make_shared<asio::steady_timer>(acceptor.get_executor(), std::chrono::milliseconds(20));
+        pause->async_wait([this, kind, &acceptor, pause](const asio::error_code& wait_ec) {
+          if (!wait_ec && acceptor.is_open()) accept(kind, acceptor);
+        });
+        return;
+      }
       asio::error_code ignored;
       socket.set_option(asio::ip::tcp::no_delay(true), ignored);
       std::shared_ptr<Conn> conn;
