@@ -115,6 +115,10 @@ TEST_F(LiveNavigationRobotStreamTest, StopRobotStopsTheArmAndNavigationGoesOnThe
   auto* output = window->outputPanel();
   ASSERT_TRUE(mrsns::test::waitUntil([&] { return output->robotStopBanner().contains("operator"); }, 5000))
       << "output->robotStopBanner().contains(\"operator\")";
+  // The banner adds the arm's time to rest, measured from the pause command.
+  ASSERT_TRUE(mrsns::test::waitUntil([&] { return output->robotStopBanner().contains("arm at rest"); }, 5000))
+      << output->robotStopBanner().toStdString();
+  EXPECT_FALSE(output->robotStopBanner().contains("stop sent")) << output->robotStopBanner().toStdString();
   const auto at_rest = live->status();
   EXPECT_TRUE(at_rest.operator_stopped);
   // Tracking, recording and the plots go on; the arm gets no motion command.
@@ -129,6 +133,8 @@ TEST_F(LiveNavigationRobotStreamTest, StopRobotStopsTheArmAndNavigationGoesOnThe
   EXPECT_EQ(later.motion_commands, at_rest.motion_commands);
   EXPECT_LE(later.arm_speed_rad_s, 1e-6);
   EXPECT_TRUE(recorder_->messages.empty()) << messages();
+  const auto png = mrsns::test::guiArtifactDir() / "main_window_navigation_operator_stop.png";
+  ASSERT_TRUE(window->saveScreenshot(QString::fromStdString(png.string()))) << messages();
 
   // Re-arm: the placement resumes and the banner goes.
   auto* rearm = window->findChild<QPushButton*>("robotRearm");

@@ -5,7 +5,9 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <cmath>
 #include <functional>
+#include <iostream>
 #include <mutex>
 #include <thread>
 
@@ -61,7 +63,12 @@ TEST(NavigationOperatorStop, PausesTheArmThroughTheSupervisorWhileNavigationReco
   ASSERT_TRUE(waitFor([&] { return loop.status().arm_speed_rad_s <= 1e-6; }, 3000ms))
       << "the arm never came to rest: " << loop.status().arm_speed_rad_s << " rad/s";
 
+  // The arm's time to rest is measured from the pause command, within the arm's stopping-time limit.
+  ASSERT_TRUE(waitFor([&] { return !std::isnan(loop.status().time_to_stop_s); }, 3000ms));
   const auto at_rest = loop.status();
+  EXPECT_GT(at_rest.stop_time_limit_s, 0.0);
+  EXPECT_LE(at_rest.time_to_stop_s, at_rest.stop_time_limit_s);
+  std::cout << "operator stop: arm at rest " << at_rest.time_to_stop_s * 1e3 << " ms after the pause command\n";
   EXPECT_TRUE(at_rest.robot_stopped);
   EXPECT_TRUE(at_rest.operator_stopped);
   EXPECT_NE(at_rest.stop_reason.find("operator"), std::string::npos) << at_rest.stop_reason;

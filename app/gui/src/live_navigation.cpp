@@ -41,7 +41,8 @@ nlohmann::json finiteOrNull(double v) {
 QString stopDetail(const workflow::NavigationStatus& st) {
   if (st.robot == "none") return {};
   QStringList parts;
-  if (std::isfinite(st.stop_latency_ms)) {
+  // An operator's stop has no lost sample to count from.
+  if (!st.operator_stopped && std::isfinite(st.stop_latency_ms)) {
     parts << QObject::tr("stop sent %1 ms (%2 cycles) after the loss")
                  .arg(st.stop_latency_ms, 0, 'f', 2)
                  .arg(st.stop_latency_cycles);

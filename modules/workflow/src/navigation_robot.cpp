@@ -334,10 +334,17 @@ bool NavigationRobot::operatorStop(std::string& why) {
   hold_ = true;
   if (!docked_) return true;  // the arm has not moved yet; the hold keeps it so
   const bool ok = post(
-      [](robot::ControlLoop& c) {
+      [this](robot::ControlLoop& c) {
         const auto state = c.supervisor().state();
-        if (state == robot::SupervisorState::Aligning || state == robot::SupervisorState::Advancing) return c.pause();
-        return true;  // not commanding motion: Ready, Paused, Stopped, Fault, Disabled
+        if (state != robot::SupervisorState::Aligning && state != robot::SupervisorState::Advancing) {
+          return true;  // not commanding motion: Ready, Paused, Stopped, Fault, Disabled
+        }
+        if (!c.pause()) return false;
+        // Control thread: the time to rest is measured from here, as for a safety stop.
+        stop_arm_time_s_ = arm_->state().time_s;
+        std::lock_guard lock(status_mutex_);
+        figures_.time_to_stop_s = std::numeric_limits<double>::quiet_NaN();
+        return true;
       },
       why);
   if (!ok && why.empty()) why = "the supervisor refused the operator's pause";
