@@ -27,6 +27,7 @@
 #include "mrsns/workflow/steps.h"
 #include "output_panel.h"
 #include "plot_widget.h"
+#include "sample_window_fixture.h"
 #include "test_data.h"
 
 namespace {
@@ -34,15 +35,6 @@ namespace {
 using mrsns::gui::MainWindow;
 using mrsns::gui::RecordingPresenter;
 namespace fs = std::filesystem;
-
-bool haveSample() {
-  try {
-    (void)mrsns::workflow::sampleSessionPath();
-    return true;
-  } catch (const mrsns::FileError&) {
-    return false;
-  }
-}
 
 /// Pixels of the planned screw paths' colour (0.30, 0.75, 0.95): blue over
 /// green over red under any light, also behind the 25 % pink tissue
@@ -75,38 +67,13 @@ double foregroundFraction(const QImage& image) {
   return static_cast<double>(n) / (static_cast<double>(image.width()) * image.height());
 }
 
-class LiveNavigationTest : public ::testing::Test {
+class LiveNavigationTest : public mrsns::test::SampleWindowTest {
  protected:
-  void SetUp() override {
-    mrsns::test::guiApp();
-    recorder_ = std::make_shared<RecordingPresenter>();
-    scratch_ = mrsns::test::scratchDirectory("gui-live");
-  }
-
-  std::unique_ptr<MainWindow> makeWindow() {
-    mrsns::gui::MainWindowOptions options;
-    options.presenter = recorder_;
-    options.remember_window_state = false;
-    options.sample_work_folder = QString::fromStdString((scratch_ / "sample").string());
-    auto window = std::make_unique<MainWindow>(options);
-    window->resize(1440, 900);
-    window->show();
-    EXPECT_TRUE(QTest::qWaitForWindowExposed(window.get()));
-    return window;
-  }
-
-  std::string messages() const {
-    std::string text;
-    for (const auto& m : recorder_->messages) text += m.title.toStdString() + ": " + m.text.toStdString() + "\n";
-    return text;
-  }
-
-  std::shared_ptr<RecordingPresenter> recorder_;
-  fs::path scratch_;
+  LiveNavigationTest() : SampleWindowTest("gui-live") {}
 };
 
 TEST_F(LiveNavigationTest, TrackerLossStopsTheRobotAndTheOutputAreaSaysWhy) {
-  if (!haveSample()) GTEST_SKIP() << "no bundled sample session";
+  if (!mrsns::test::haveSampleSession()) GTEST_SKIP() << "no bundled sample session";
   auto window = makeWindow();
   ASSERT_TRUE(window->openSampleSession()) << messages();
   // The patient reference marker vanishes 1.0 s in, for 1.5 s (the simulated
@@ -216,7 +183,7 @@ TEST_F(LiveNavigationTest, TrackerLossStopsTheRobotAndTheOutputAreaSaysWhy) {
 }
 
 TEST_F(LiveNavigationTest, WithTheRobotInTheLoopTheSupervisorStopsItAndTheBannerSaysWhy) {
-  if (!haveSample()) GTEST_SKIP() << "no bundled sample session";
+  if (!mrsns::test::haveSampleSession()) GTEST_SKIP() << "no bundled sample session";
   auto window = makeWindow();
   ASSERT_TRUE(window->openSampleSession()) << messages();
   // The simulated UR5 follows the sample's first planned path; the patient
@@ -302,7 +269,7 @@ TEST_F(LiveNavigationTest, RefusedWithoutASessionWithAMessageAndTheButtonBackOff
 }
 
 TEST_F(LiveNavigationTest, SampleSessionOpensWithItsModelsAndThePlannedPathsInView) {
-  if (!haveSample()) GTEST_SKIP() << "no bundled sample session";
+  if (!mrsns::test::haveSampleSession()) GTEST_SKIP() << "no bundled sample session";
   auto window = makeWindow();
   ASSERT_TRUE(window->openSampleSession()) << messages();
   const auto& scene = window->displayArea()->scene();
@@ -328,7 +295,7 @@ TEST_F(LiveNavigationTest, SampleSessionOpensWithItsModelsAndThePlannedPathsInVi
 }
 
 TEST_F(LiveNavigationTest, ExecutableWithoutArgumentsOpensTheSampleSession) {
-  if (!haveSample()) GTEST_SKIP() << "no bundled sample session";
+  if (!mrsns::test::haveSampleSession()) GTEST_SKIP() << "no bundled sample session";
   const auto png = mrsns::test::guiArtifactDir() / "mrsns_no_arguments.png";
   fs::remove(png);
   QProcess process;

@@ -26,6 +26,7 @@
 #include "mrsns/workflow/steps.h"
 #include "output_panel.h"
 #include "plot_widget.h"
+#include "sample_window_fixture.h"
 #include "test_data.h"
 
 namespace {
@@ -33,15 +34,6 @@ namespace {
 using mrsns::gui::MainWindow;
 using mrsns::gui::RecordingPresenter;
 namespace fs = std::filesystem;
-
-bool haveSample() {
-  try {
-    (void)mrsns::workflow::sampleSessionPath();
-    return true;
-  } catch (const mrsns::FileError&) {
-    return false;
-  }
-}
 
 /// Robot in the loop with the watchdog and staleness limits loosened: on a
 /// loaded test machine only what the test does may stop the arm (the
@@ -66,38 +58,13 @@ int freePort() {
   return port;
 }
 
-class LiveNavigationRobotStreamTest : public ::testing::Test {
+class LiveNavigationRobotStreamTest : public mrsns::test::SampleWindowTest {
  protected:
-  void SetUp() override {
-    mrsns::test::guiApp();
-    recorder_ = std::make_shared<RecordingPresenter>();
-    scratch_ = mrsns::test::scratchDirectory("gui-live-stream");
-  }
-
-  std::unique_ptr<MainWindow> makeWindow() {
-    mrsns::gui::MainWindowOptions options;
-    options.presenter = recorder_;
-    options.remember_window_state = false;
-    options.sample_work_folder = QString::fromStdString((scratch_ / "sample").string());
-    auto window = std::make_unique<MainWindow>(options);
-    window->resize(1440, 900);
-    window->show();
-    EXPECT_TRUE(QTest::qWaitForWindowExposed(window.get()));
-    return window;
-  }
-
-  std::string messages() const {
-    std::string text;
-    for (const auto& m : recorder_->messages) text += m.title.toStdString() + ": " + m.text.toStdString() + "\n";
-    return text;
-  }
-
-  std::shared_ptr<RecordingPresenter> recorder_;
-  fs::path scratch_;
+  LiveNavigationRobotStreamTest() : SampleWindowTest("gui-live-stream") {}
 };
 
 TEST_F(LiveNavigationRobotStreamTest, StopRobotStopsTheArmAndNavigationGoesOnThenReArmResumes) {
-  if (!haveSample()) GTEST_SKIP() << "no bundled sample session";
+  if (!mrsns::test::haveSampleSession()) GTEST_SKIP() << "no bundled sample session";
   auto window = makeWindow();
   ASSERT_TRUE(window->openSampleSession()) << messages();
   ASSERT_TRUE(window->startNavigation(robotOptions())) << messages();
@@ -153,7 +120,7 @@ TEST_F(LiveNavigationRobotStreamTest, StopRobotStopsTheArmAndNavigationGoesOnThe
 }
 
 TEST_F(LiveNavigationRobotStreamTest, HologramStreamCarriesTheLiveTransformsAndClientsCannotMoveTheRobot) {
-  if (!haveSample()) GTEST_SKIP() << "no bundled sample session";
+  if (!mrsns::test::haveSampleSession()) GTEST_SKIP() << "no bundled sample session";
   auto window = makeWindow();
   ASSERT_TRUE(window->openSampleSession()) << messages();
   const int port = freePort();
