@@ -1,4 +1,5 @@
 // index.html of a trial report: one self-contained page, no scripts.
+#include <algorithm>
 #include <iomanip>
 #include <sstream>
 
@@ -7,6 +8,33 @@
 namespace mrsns::workflow {
 
 namespace {
+
+using Json = nlohmann::json;
+
+// Per-sample series (loop latency, error per frame: up to thousands of
+// numbers) stay in report.json; the page shows their length and range.
+Json withLongSeriesShortened(const Json& j) {
+  constexpr std::size_t kMaxShown = 12;
+  if (j.is_object()) {
+    Json out = Json::object();
+    for (const auto& [key, value] : j.items()) out[key] = withLongSeriesShortened(value);
+    return out;
+  }
+  if (j.is_array() && j.size() > kMaxShown &&
+      std::all_of(j.begin(), j.end(), [](const Json& v) { return v.is_number(); })) {
+    const auto [lo, hi] = std::minmax_element(
+        j.begin(), j.end(), [](const Json& a, const Json& b) { return a.get<double>() < b.get<double>(); });
+    std::ostringstream text;
+    text << j.size() << " values from " << lo->get<double>() << " to " << hi->get<double>() << " (in report.json)";
+    return text.str();
+  }
+  if (j.is_array()) {
+    Json out = Json::array();
+    for (const auto& v : j) out.push_back(withLongSeriesShortened(v));
+    return out;
+  }
+  return j;
+}
 
 std::string escape(const std::string& s) {
   std::string out;
@@ -44,7 +72,7 @@ std::string number(const nlohmann::json& v) {
 std::string meanSd(const nlohmann::json& v) {
   if (v.is_number()) return number(v);
   if (!v.is_object()) return "&ndash;";
-  return number(v["mean"]) + " &plusmn; " + number(v["sd"]);
+  return number(at(v, "mean")) + " &plusmn; " + number(at(v, "sd"));
 }
 
 // "mean &plusmn; sd" from two keys of an object.
@@ -80,8 +108,10 @@ std::string noiseNote(const char* what, const nlohmann::json& model) {
 }  // namespace
 
 std::string renderTrialHtml(const nlohmann::json& report) {
-  const auto& steps = report["steps"];
-  const auto& paper = report["paper"];
+  // at(): a report missing a part renders with dashes (operator[] on a
+  // const json with a missing key is undefined).
+  const auto steps = at(report, "steps");
+  const auto paper = at(report, "paper");
   struct Row {
     const char* what;
     std::string ours;
@@ -96,7 +126,7 @@ std::string renderTrialHtml(const nlohmann::json& report) {
   const std::vector<Row> rows = {
       {"US calibration, validation 3D reprojection (mm)",
        number(at(steps, "us-spatial-calibration" + fig + "validation/reprojection_3d_mean_mm")),
-       meanSd(paper["plus_us_calibration_validation_mm"]),
+       meanSd(at(paper, "plus_us_calibration_validation_mm")),
        "PLUS ProbeCalibration on the same recording, without the tracker lag"},
       {"US temporal calibration, tracker lag (ms)",
        number(at(steps, "us-temporal-calibration" + fig + "tracker_lag_ms")), "&ndash;", "PLUS's result assumes 0 ms"},
@@ -110,42 +140,42 @@ std::string renderTrialHtml(const nlohmann::json& report) {
        number(at(steps, "hmd-calibration" + fig + "rigid_rms_mm")), "&ndash;",
        noiseNote("calibration cube, Eq. 2-3", at(steps, "hmd-calibration" + fig + "noise_model"))},
       {"MR calibration, Fig. 7 compensated (tremor + 4 views), Eq. 23 RMS (mm)",
-       meanSdOf(cube, "compensated/mean_rms_mm", "compensated/std_rms_mm"), meanSd(paper["mr_calibration_rms_mm"]),
+       meanSdOf(cube, "compensated/mean_rms_mm", "compensated/std_rms_mm"), meanSd(at(paper, "mr_calibration_rms_mm")),
        cube_note},
       {"MR calibration, Fig. 7 uncompensated, Eq. 23 RMS (mm)",
        meanSdOf(cube, "uncompensated/mean_rms_mm", "uncompensated/std_rms_mm"), "&ndash;", "same trials"},
       {"MR calibration, Fig. 7 pointer method, Eq. 23 RMS (mm)",
        meanSdOf(cube, "pointer/mean_rms_mm", "pointer/std_rms_mm"), "&ndash;", "same trials"},
       {"MR calibration, improvement vs uncompensated (%)", number(at(cube, "improvement_vs_uncompensated_percent")),
-       number(paper["mr_calibration_improvement_vs_uncompensated_percent"]), "paper 001 Fig. 7"},
+       number(at(paper, "mr_calibration_improvement_vs_uncompensated_percent")), "paper 001 Fig. 7"},
       {"MR calibration, improvement vs pointer (%)", number(at(cube, "improvement_vs_pointer_percent")),
-       number(paper["mr_calibration_improvement_vs_pointer_percent"]), "paper 001 Fig. 7"},
+       number(at(paper, "mr_calibration_improvement_vs_pointer_percent")), "paper 001 Fig. 7"},
       {"HMD camera checkerboard hand-eye, retro-projection error (mm)", meanSdOf(board, "rpee_mean_mm", "rpee_std_mm"),
-       meanSd(paper["checkerboard_rpee_mm"]) + " (paper 000)",
+       meanSd(at(paper, "checkerboard_rpee_mm")) + " (paper 000)",
        noiseNote("hmd::runCheckerboardTrial", at(board, "noise_model"))},
       {"HMD camera hand-eye, error vs truth (deg / mm)",
        number(at(board, "hand_eye_rotation_error_deg")) + " / " + number(at(board, "hand_eye_translation_error_mm")),
        "&ndash;", "simulation truth"},
       {"Deformation, mean surface distance E^SD (mm)",
        number(at(steps, "navigation" + fig + "deformation/posterior_sd_mean_mm")),
-       meanSd(paper["deformation_mean_surface_distance_mm"]), "posterior shape model, Table I"},
+       meanSd(at(paper, "deformation_mean_surface_distance_mm")), "posterior shape model, Table I"},
       {"Deformation, fiducial point error E^FP (mm)",
        number(at(steps, "navigation" + fig + "deformation/posterior_fp_mm")),
-       meanSd(paper["deformation_fiducial_point_error_mm"]), "Table I"},
+       meanSd(at(paper, "deformation_fiducial_point_error_mm")), "Table I"},
       {"Placement, robot trial distance deviation (mm)", meanSd(at(robot, "distance_deviation_mm")),
-       meanSd(paper["placement_distance_deviation_mm"]),
+       meanSd(at(paper, "placement_distance_deviation_mm")),
        noiseNote("robot::runPlacementTrial, C5/C6 pedicle screws", at(robot, "noise_model"))},
       {"Placement, robot trial angle deviation (deg)", meanSd(at(robot, "angle_deviation_deg")),
-       meanSd(paper["placement_angle_deviation_deg"]), "same trials"},
+       meanSd(at(paper, "placement_angle_deviation_deg")), "same trials"},
       {"Placement, robot trial tip deviation (mm)", meanSd(at(robot, "tip_deviation_mm")), "&ndash;", "same trials"},
       {"Placement, session chain entry error (mm)", number(at(steps, "robot-placement" + fig + "entry_error_mm/mean")),
-       meanSd(paper["placement_distance_deviation_mm"]),
+       meanSd(at(paper, "placement_distance_deviation_mm")),
        noiseNote("Eq. 4 chain of this session", at(steps, "robot-placement" + fig + "noise_model"))},
       {"Placement, session chain angle error (deg)",
        number(at(steps, "robot-placement" + fig + "angle_error_deg/mean")),
-       meanSd(paper["placement_angle_deviation_deg"]), ""},
+       meanSd(at(paper, "placement_angle_deviation_deg")), ""},
       {"Navigation loop latency (ms)", number(at(steps, "navigation" + fig + "mean_loop_latency_ms")),
-       meanSd(paper["navigation_delay_ms"]), "ours: tracking to hologram stream, no Wi-Fi/HMD"},
+       meanSd(at(paper, "navigation_delay_ms")), "ours: tracking to hologram stream, no Wi-Fi/HMD"},
   };
   std::ostringstream h;
   h << "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>MR-SNS phantom trial</title>\n"
@@ -154,8 +184,9 @@ std::string renderTrialHtml(const nlohmann::json& report) {
     << ".ok{color:#070}.failed,.cancelled{color:#b00}.skipped{color:#a60}pre{background:#f6f6f6;padding:.5em;"
     << "overflow:auto;max-height:25em}img{max-width:45%;margin:.5em;border:1px solid #ccc}</style></head><body>\n"
     << "<h1>MR-SNS phantom trial</h1>\n<p>Version " << escape(report.value("version", "")) << ", "
-    << escape(report.value("created", "")) << ", seed " << report.value("seed", 0) << ", " << number(report["seconds"])
-    << " s. Overall: <b class=\"" << (report.value("ok", false) ? "ok\">ok" : "failed\">FAILED")
+    << escape(report.value("created", "")) << ", seed " << report.value("seed", 0) << ", "
+    << number(at(report, "seconds")) << " s. Overall: <b class=\""
+    << (report.value("ok", false) ? "ok\">ok" : "failed\">FAILED")
     << "</b>.</p>\n<h2>Figures beside the papers</h2>\n<table><tr><th>Figure</th><th>This trial</th>"
     << "<th>Paper 001 / PLUS</th><th>Note</th></tr>\n";
   for (const auto& r : rows) {
@@ -180,14 +211,15 @@ std::string renderTrialHtml(const nlohmann::json& report) {
     }
   }
   h << "<h2>Session log</h2>\n<pre>";
-  for (const auto& line : report["log"]) {
+  for (const auto& line : at(report, "log")) {
+    if (!line.is_object()) continue;
     h << escape(line.value("time", "")) << ' ' << escape(line.value("level", "")) << ' '
       << escape(line.value("message", "")) << '\n';
   }
   h << "</pre>\n<h2>All figures</h2>\n";
   for (const auto& [name, s] : steps.items()) {
-    h << "<h3>" << escape(name) << "</h3><pre>" << escape(s.contains("figures") ? s["figures"].dump(2) : "{}")
-      << "</pre>\n";
+    h << "<h3>" << escape(name) << "</h3><pre>"
+      << escape(s.contains("figures") ? withLongSeriesShortened(s["figures"]).dump(2) : "{}") << "</pre>\n";
   }
   h << "</body></html>\n";
   return h.str();
