@@ -33,11 +33,12 @@ double wallSeconds() {
 NavigationLoop::NavigationLoop(NavigationOptions options, std::vector<tracking::HologramModel> models)
     : options_(std::move(options)), repository_(std::make_shared<TransformRepository>()) {
   const auto& ro = options_.robot;
-  if (ro.robot != "none" && ro.robot != "simulated") {
-    throw InvalidArgumentError("navigation: unknown robot '" + ro.robot + "': use none or simulated");
+  if (ro.robot != "none" && ro.robot != "simulated" && ro.robot != "ur") {
+    throw InvalidArgumentError("navigation: unknown robot '" + ro.robot +
+                               "': use none or simulated (in-process UR5), or ur (a UR controller)");
   }
   DeviceOptions devices = options_.devices;
-  if (ro.robot == "simulated") {
+  if (ro.robot != "none") {
     // The drill marker is seen on the simulated arm by the loop, not scripted in the tracker: its dropout is
     // applied here.
     if (devices.dropout_tool == ro.tool_transform && devices.dropout_start_s >= 0.0) {

@@ -60,9 +60,16 @@ NavigationRobot::NavigationRobot(const NavigationRobotOptions& options, double m
   if (!(options.advance_speed_mm_s > 0.0)) {
     throw InvalidArgumentError("navigation robot: advance_speed_mm_s must be > 0");
   }
-  robot::SimulatedArmOptions arm_options;
-  arm_options.control_period_s = 1.0 / options.control_rate_hz;
-  arm_ = std::make_shared<robot::SimulatedArm>(arm_options);
+  if (options.robot == "ur") {
+    // Connects now, on the caller's thread: an unreachable controller is the caller's error, before any
+    // thread starts.
+    arm_ = connectUrArm(options);
+  } else {
+    robot::SimulatedArmOptions arm_options;
+    arm_options.control_period_s = 1.0 / options.control_rate_hz;
+    sim_arm_ = std::make_shared<robot::SimulatedArm>(arm_options);
+    arm_ = sim_arm_;
+  }
 
   // The drill geometry and flange marker of the robot module's test scene.
   flange_T_marker_.linear() = so3Exp(Eigen::Vector3d(0.0, 0.5, 0.3));
@@ -79,11 +86,21 @@ NavigationRobot::NavigationRobot(const NavigationRobotOptions& options, double m
   control.limits.max_tracking_age_s = max_tracking_age_s;
   control.limits.max_cycle_time_s = options.max_cycle_time_s;
   control.limits.max_missed_cycles = options.max_missed_cycles;
+  if (!sim_arm_) {
+    // RTDE packages and control ticks run on two clocks: a tick that sees no new package is jitter, not a
+    // stalled controller, until the controller has been silent for ur_silence_s.
+    control.limits.max_stalled_cycles =
+        std::max<std::uint64_t>(control.limits.max_stalled_cycles,
+                                static_cast<std::uint64_t>(std::ceil(options.ur_silence_s * options.control_rate_hz)));
+  }
   control.guidance.advance_speed_mm_s = options.advance_speed_mm_s;
-  control_ = std::make_unique<robot::ControlLoop>(arm_, arm_->kinematics(), setup, control);
-  figures_.robot = "simulated";
+  control_ = std::make_unique<robot::ControlLoop>(arm_, kinematics_, setup, control);
+  figures_.robot = sim_arm_ ? "simulated" : "ur";
   figures_.supervisor_state = robot::toString(control_->supervisor().state());
-  figures_.stop_time_limit_s = arm_->options().stop_time_limit_s;
+  // A real UR's stopping-time limit is a safety setting of the controller; the UR5 CB3 default is what the
+  // simulated arm assumes too.
+  figures_.stop_time_limit_s =
+      sim_arm_ ? sim_arm_->options().stop_time_limit_s : robot::SimulatedArmOptions{}.stop_time_limit_s;
 }
 
 NavigationRobot::~NavigationRobot() {
@@ -91,17 +108,9 @@ NavigationRobot::~NavigationRobot() {
 }
 
 void NavigationRobot::dock(const Eigen::Isometry3d& tracker_T_patient) {
-  // The cart is wheeled to the patient: the planned entry lies 45 mm in front of the drill at its start
-  // pose, the planned direction within a few degrees of the drill's (so the approach has work to do).
-  const Eigen::Isometry3d flange_T_tip = control_->guidance().flangeTTip();
-  const Eigen::Isometry3d tip0 = arm_->state().base_T_flange * flange_T_tip;
-  const Eigen::Vector3d direction_base = (tip0.linear() * Eigen::Vector3d(0.08, -0.05, 1.0)).normalized();
-  const Eigen::Vector3d entry_base = tip0.translation() + tip0.linear() * Eigen::Vector3d(8, 5, 45);
-  Eigen::Isometry3d base_T_plan = Eigen::Isometry3d::Identity();
-  base_T_plan.linear() =
-      Eigen::Quaterniond::FromTwoVectors(options_.plan.direction(), direction_base).toRotationMatrix();
-  base_T_plan.translation() = entry_base - base_T_plan.linear() * options_.plan.entry;
-  tracker_T_base_ = tracker_T_patient * options_.patient_T_plan * base_T_plan.inverse();
+  // A real arm stands where the robot calibration found it; the simulated cart is wheeled to the patient.
+  tracker_T_base_ = sim_arm_ ? simulatedDocking(options_, tracker_T_patient, arm_->state().base_T_flange)
+                             : *options_.tracker_T_robot_base;
   docked_ = true;
   thread_ = std::thread([this] { controlThread(); });
 }
@@ -114,7 +123,8 @@ std::optional<tracking::ToolUpdate> NavigationRobot::observeDrill(
     if (stopping_) return std::nullopt;
     dock(*tracker_T_patient);
   }
-  if (stopping_) return std::nullopt;
+  // A real tracker sees the real drill: its own tool_transform reaches the supervisor.
+  if (stopping_ || (!sim_arm_ && !options_.simulate_drill_marker)) return std::nullopt;
   Eigen::Isometry3d tracker_T_marker = tracker_T_base_ * arm_->state().base_T_flange * flange_T_marker_;
   if (marker_noise_mm_ > 0.0) {
     // The simulated tracker's noise model: isotropic, per-axis sigma = rms / sqrt(3).
@@ -211,16 +221,20 @@ void NavigationRobot::onCycle(const robot::CycleReport& report) {
   for (auto& r : requests) r(*control_);
   if (options_.auto_start && !auto_started_ && !hold_ && trackingGood(cycle_feed_, cycle_start_s_) &&
       control_->supervisor().state() == robot::SupervisorState::Disabled) {
-    auto_started_ = true;
-    control_->enable();
-    control_->startPlacement();
+    // A UR controller refuses until its first RTDE package arrived: tried again next cycle.
+    if (control_->enable()) {
+      auto_started_ = true;
+      control_->startPlacement();
+    }
   }
 
-  // The simulated controller runs on the wall clock: cycles this thread missed pass for the arm too.
-  const auto due = static_cast<std::uint64_t>(std::max(0.0, std::floor((clock_() - arm_origin_s_) / period)));
-  const std::uint64_t steps = std::clamp<std::uint64_t>(due > arm_steps_ ? due - arm_steps_ : 1, 1, 25);
-  for (std::uint64_t k = 0; k < steps; ++k) arm_->step();
-  arm_steps_ = std::max(due, arm_steps_ + steps);
+  if (sim_arm_) {
+    // The simulated controller runs on the wall clock: cycles this thread missed pass for the arm too.
+    const auto due = static_cast<std::uint64_t>(std::max(0.0, std::floor((clock_() - arm_origin_s_) / period)));
+    const std::uint64_t steps = std::clamp<std::uint64_t>(due > arm_steps_ ? due - arm_steps_ : 1, 1, 25);
+    for (std::uint64_t k = 0; k < steps; ++k) sim_arm_->step();
+    arm_steps_ = std::max(due, arm_steps_ + steps);
+  }
   const robot::ArmState arm = arm_->state();
   double time_to_stop = std::numeric_limits<double>::quiet_NaN();
   if (!std::isnan(stop_arm_time_s_) && atRest(arm)) {

@@ -1,10 +1,10 @@
 #pragma once
-// The robot side of the navigation loop: a simulated UR5 (robot::SimulatedArm), the workstation's
-// robot::ControlLoop and its robot::SafetySupervisor, ticked in real time on their own thread. The loop
-// thread hands it what each tracking batch said (TrackingFeed); the control thread turns the latest feed
-// into the supervisor's tracking inputs every cycle, so a lost, stale or disconnected tracker stops the arm
-// through the supervisor. Only the control thread touches the ControlLoop: operator requests (rearm, start)
-// are posted to it and run between two cycles.
+// The robot side of the navigation loop: a simulated UR5 (robot::SimulatedArm) or a UR controller over the
+// network (robot::UrRtdeArm), the workstation's robot::ControlLoop and its robot::SafetySupervisor, ticked in real time
+// on their own thread. The loop thread hands it what each tracking batch said (TrackingFeed); the control thread turns
+// the latest feed into the supervisor's tracking inputs every cycle, so a lost, stale or disconnected tracker stops the
+// arm through the supervisor. Only the control thread touches the ControlLoop: operator requests (rearm, start) are
+// posted to it and run between two cycles.
 #include <Eigen/Geometry>
 #include <atomic>
 #include <deque>
@@ -20,6 +20,7 @@
 
 #include "mrsns/robot/control_loop.h"
 #include "mrsns/robot/simulated_arm.h"
+#include "mrsns/robot/ur5_kinematics.h"
 #include "mrsns/tracking/tracking_source.h"
 #include "mrsns/workflow/navigation.h"
 
@@ -41,12 +42,17 @@ struct TrackingFeed {
   std::string lost;
 };
 
+/// Validates the "ur" options and connects robot::UrRtdeArm. Throws InvalidArgumentError for bad ports, rate
+/// or a missing robot calibration, NetworkError (naming host:port and what to check) when nothing answers.
+std::shared_ptr<robot::RobotArm> connectUrArm(const NavigationRobotOptions& options);
+
 /// The supervisor's tracking view at now_s.
 robot::TrackingSnapshot snapshotFromFeed(const TrackingFeed& feed, double now_s);
 
 class NavigationRobot {
  public:
-  /// Throws InvalidArgumentError for a bad rate or plan.
+  /// Throws InvalidArgumentError for a bad rate, plan or missing robot calibration ("ur"); NetworkError when
+  /// the UR controller cannot be reached ("ur": connects here, before any thread starts).
   NavigationRobot(const NavigationRobotOptions& options, double max_tracking_age_s, double marker_noise_mm,
                   std::uint64_t seed, std::function<double()> clock);
   ~NavigationRobot();
@@ -90,8 +96,10 @@ class NavigationRobot {
   std::function<double()> clock_;
   std::mt19937_64 rng_;
 
+  robot::Ur5Kinematics kinematics_;
+  std::shared_ptr<robot::RobotArm> arm_;
+  std::shared_ptr<robot::SimulatedArm> sim_arm_;  // null with "ur": the controller steps its own arm
   // Set when docking (loop thread), read-only afterwards.
-  std::shared_ptr<robot::SimulatedArm> arm_;
   std::unique_ptr<robot::ControlLoop> control_;
   Eigen::Isometry3d tracker_T_base_ = Eigen::Isometry3d::Identity();
   Eigen::Isometry3d flange_T_marker_ = Eigen::Isometry3d::Identity();

@@ -19,6 +19,31 @@ Json number(double v) {
   return std::isfinite(v) ? Json(v) : Json(nullptr);
 }
 
+// The UR controller's address and where its base stands (the robot calibration: a real arm is not wheeled to
+// the patient by the software).
+void configureUr(const Session& session, const Params& params, NavigationOptions& options) {
+  auto& ro = options.robot;
+  ro.ur_host = params.text("ur_host", ro.ur_host);
+  ro.ur_rtde_port = params.integer("ur_rtde_port", ro.ur_rtde_port);
+  ro.ur_script_port = params.integer("ur_script_port", ro.ur_script_port);
+  ro.ur_dashboard_port = params.integer("ur_dashboard_port", ro.ur_dashboard_port);
+  ro.ur_silence_s = params.number("ur_silence_s", ro.ur_silence_s);
+  const auto calibration = session.step("robot-calibration");
+  const bool calibrated = calibration.is_object() && calibration.value("status", "") == "ok" &&
+                          calibration.contains("figures") && calibration["figures"].contains("transforms") &&
+                          calibration["figures"]["transforms"].contains("RobotBaseToTracker");
+  if (!calibrated) {
+    throw InvalidArgumentError(
+        "navigation: robot=ur needs the session's robot calibration (RobotBaseToTracker): the arm stands where it "
+        "is, so run the robot-calibration step on this session first");
+  }
+  ro.tracker_T_robot_base = Eigen::Isometry3d(matrixFromJson(calibration["figures"]["transforms"]["RobotBaseToTracker"],
+                                                             "session.json steps.robot-calibration.transforms."
+                                                             "RobotBaseToTracker"));
+  // Only the simulated tracker needs the loop to draw the drill marker on the arm; a real one sees it.
+  ro.simulate_drill_marker = options.devices.source == "simulated";
+}
+
 }  // namespace
 
 void configureNavigationRobot(const Session& session, const Params& params, NavigationOptions& options) {
@@ -31,11 +56,12 @@ void configureNavigationRobot(const Session& session, const Params& params, Navi
   }
   std::string mode = params.text("robot", "auto");
   if (mode == "auto") mode = has_plan ? "simulated" : "none";
-  if (mode != "none" && mode != "simulated") {
-    throw InvalidArgumentError("navigation: robot '" + mode + "' is not one of auto, none, simulated");
+  if (mode != "none" && mode != "simulated" && mode != "ur") {
+    throw InvalidArgumentError("navigation: robot '" + mode + "' is not one of auto, none, simulated, ur");
   }
   options.robot.robot = mode;
   if (mode == "none") return;
+  if (mode == "ur") configureUr(session, params, options);
   options.robot.advance_speed_mm_s = params.number("advance_speed_mm_s", options.robot.advance_speed_mm_s);
   const int missed = params.integer("max_missed_cycles", static_cast<int>(options.robot.max_missed_cycles));
   if (missed < 0) throw InvalidArgumentError("navigation: max_missed_cycles must be >= 0");

@@ -14,6 +14,7 @@
 #include <limits>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -71,8 +72,14 @@ registration::ScrewPath defaultNavigationPlan();
 /// robot::SimulatedArm, a robot::ControlLoop and its robot::SafetySupervisor, ticked at control_rate_hz on
 /// their own thread; every tracking batch feeds the supervisor's tracking inputs, so a lost, stale or
 /// disconnected tracker stops the arm through the supervisor (see doc/README.md, "The robot in the loop").
+///
+/// With "ur" the loop drives a UR controller (a real one, or robot::UrSimulator) through robot::UrRtdeArm: RTDE
+/// state, URScript commands on the real-time interface, the dashboard for unlocking. It connects in the
+/// NavigationLoop constructor (NetworkError naming host:port before any thread starts); a connection lost
+/// while running is a supervisor stop (RobotDisconnected), never a throw. The base is where the robot stands:
+/// tracker_T_robot_base (RobotBaseToTracker, the robot calibration) is required.
 struct NavigationRobotOptions {
-  std::string robot = "none";  ///< "none" | "simulated"
+  std::string robot = "none";  ///< "none" | "simulated" | "ur"
   /// The planned path in the plan (CT) frame and the registration plan -> patient reference.
   registration::ScrewPath plan = defaultNavigationPlan();
   Eigen::Isometry3d patient_T_plan = Eigen::Isometry3d::Identity();
@@ -89,7 +96,31 @@ struct NavigationRobotOptions {
   /// itself when servoJ targets stop arriving, so the loop allows more by default.
   double max_cycle_time_s = 0.02;
   std::uint64_t max_missed_cycles = 25;
+
+  // robot "ur": the controller's address and ports (UR defaults, as robot::UrRtdeArmOptions has them).
+  std::string ur_host = "127.0.0.1";
+  int ur_rtde_port = 30004;
+  int ur_script_port = 30003;
+  int ur_dashboard_port = 29999;
+  double ur_connect_timeout_s = 2.0;
+  /// robot "ur": a controller silent this long counts as disconnected (and its cycle counter as stalled). RTDE
+  /// streams at the control rate; a loaded desktop delays packages by a few periods, a closed socket is seen at
+  /// once whatever this says.
+  double ur_silence_s = 0.05;
+  /// robot "ur": where the robot base stands in the tracker frame (RobotBaseToTracker, the robot calibration).
+  /// Required with "ur"; the simulated arm is docked at the patient instead.
+  std::optional<Eigen::Isometry3d> tracker_T_robot_base;
+  /// robot "ur": true: the loop computes the drill marker from the arm's reported pose as the tracker would see
+  /// it (a simulated tracker, which has no arm to see); false: the tracker reports tool_transform itself.
+  bool simulate_drill_marker = true;
 };
+
+/// Where the simulated cart is wheeled (tracker_T_robot_base, i.e. RobotBaseToTracker): the planned entry
+/// 45 mm in front of the drill tip of an arm at base_T_flange, the planned direction a few degrees off the
+/// drill's. The simulated arm docks so; tests and simulations use it as the robot calibration of a UR arm
+/// that can reach the plan.
+Eigen::Isometry3d simulatedDocking(const NavigationRobotOptions& options, const Eigen::Isometry3d& tracker_T_patient,
+                                   const Eigen::Isometry3d& base_T_flange);
 
 /// One transition of the robot's safety supervisor (robot::TransitionRecord as text).
 struct NavigationRobotTransition {
