@@ -11,6 +11,7 @@
 #include <QPushButton>
 #include <QRegularExpression>
 #include <QSignalSpy>
+#include <QStatusBar>
 #include <filesystem>
 #include <iostream>
 
@@ -197,7 +198,7 @@ TEST_F(LiveNavigationTest, WithTheRobotInTheLoopTheSupervisorStopsItAndTheBanner
   options.silence_timeout_s = 1.0;
   options.devices.dropout_tool = "PatientToTracker";
   options.devices.dropout_start_s = 1.5;
-  options.devices.dropout_duration_s = 1.0;
+  options.devices.dropout_duration_s = 3.0;  // still lost when Re-arm is clicked below
   ASSERT_TRUE(window->startNavigation(options)) << messages();
   EXPECT_TRUE(window->displayArea()->scene().contains(mrsns::gui::kDrillObject));
   auto* output = window->outputPanel();
@@ -211,12 +212,23 @@ TEST_F(LiveNavigationTest, WithTheRobotInTheLoopTheSupervisorStopsItAndTheBanner
   EXPECT_TRUE(output->navigationStatus().contains("robot Stopped")) << output->navigationStatus().toStdString();
   EXPECT_TRUE(recorder_->messages.empty()) << messages();
 
-  // Re-arm while the reference is still lost is refused and the banner stays.
+  const auto commands_at_rest = window->liveNavigation()->status().motion_commands;
+
+  // Re-arm while the reference is still lost is refused (the status bar says
+  // so) and, past several 50 ms polls, the banner stays, the supervisor is
+  // still Stopped and no motion command went out.
   auto* rearm = window->findChild<QPushButton*>("robotRearm");
   ASSERT_NE(rearm, nullptr);
   ASSERT_TRUE(rearm->isEnabled());
   QTest::mouseClick(rearm, Qt::LeftButton);
+  ASSERT_TRUE(
+      mrsns::test::waitUntil([&] { return window->statusBar()->currentMessage().contains("Re-arm refused"); }, 5000))
+      << window->statusBar()->currentMessage().toStdString();
+  (void)mrsns::test::waitUntil([] { return false; }, 300);
   EXPECT_FALSE(output->robotStopBanner().isEmpty());
+  EXPECT_TRUE(window->liveNavigation()->status().robot_stopped);
+  EXPECT_EQ(window->liveNavigation()->status().supervisor_state, "Stopped");
+  EXPECT_EQ(window->liveNavigation()->status().motion_commands, commands_at_rest);
   const auto png = mrsns::test::guiArtifactDir() / "main_window_navigation_supervisor_stop.png";
   ASSERT_TRUE(window->saveScreenshot(QString::fromStdString(png.string()))) << messages();
 

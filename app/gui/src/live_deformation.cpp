@@ -27,6 +27,7 @@ LiveDeformation::LiveDeformation(const LiveDeformationOptions& options) : option
       failure_ = e.what();
       logger()->warn("live deformation: the simulated sweep could not be built: {}", e.what());
     }
+    built_.store(true);
   });
 }
 

@@ -52,6 +52,8 @@ class LiveDeformation {
   /// Samples since the last call (GUI thread).
   std::vector<DeformationSample> takeSamples();
   [[nodiscard]] bool ready() const { return ready_.load(); }
+  /// The sweep is built or has failed: destroying this no longer waits.
+  [[nodiscard]] bool built() const { return built_.load(); }
   /// The B-mode frame last used (GUI thread): an 8-bit slice with pixel
   /// spacing 1 and probe_T_pixel, the believed calibration mapping pixel
   /// (i, j, 0, 1) to probe mm. False before the first frame; `frame` says
@@ -64,6 +66,7 @@ class LiveDeformation {
   LiveDeformationOptions options_;
   std::thread builder_;
   std::atomic<bool> ready_{false};
+  std::atomic<bool> built_{false};
   std::unique_ptr<deformation::SimulatedSweep> sweep_;
   std::unique_ptr<deformation::PosteriorShapeTracker> tracker_;
   Eigen::VectorXd truth_shape_;

@@ -104,7 +104,7 @@ void LiveNavigation::start(const LiveNavigationSetup& setup) {
     loop->repository().setTransform("StylusTip", "Stylus", stylus_T_tip, TransformStatus::Ok,
                                     std::numeric_limits<double>::quiet_NaN(), true);
   }
-  deformation_.reset();
+  retireDeformation();
   deformation_time_s_.clear();
   deformation_mm_.clear();
   deformation_prior_mm_ = std::numeric_limits<double>::quiet_NaN();
@@ -196,7 +196,13 @@ void LiveNavigation::showUltrasound() {
   }
 }
 
+void LiveNavigation::retireDeformation() {
+  if (deformation_) retired_deformations_.push_back(std::move(deformation_));
+  deformation_.reset();
+}
+
 void LiveNavigation::poll() {
+  std::erase_if(retired_deformations_, [](const auto& d) { return d->built() && d.use_count() == 1; });
   if (!loop_) return;
   const workflow::NavigationStatus st = loop_->status();
   const double t = static_cast<double>(clock_.elapsed()) * 1e-3;
@@ -259,12 +265,14 @@ void LiveNavigation::poll() {
         true,
         tr("serving %1 clients on 127.0.0.1:%2 with the live tracking").arg(st.hologram_clients).arg(st.hologram_port));
   }
-  if (st.robot_stopped && !stop_reported_) {
+  // A new stop, or the reason changed under a stop in force (an operator
+  // pause that a tracking loss turned into a safety stop): report it.
+  if (st.robot_stopped && (!stop_reported_ || QString::fromStdString(st.stop_reason) != stop_reason_)) {
     stop_reported_ = true;
-    // The supervisor's event carries when (since start) the stop happened.
+    // The latest stop event carries when (since start) the stop happened.
     double at_s = t;
     for (const auto& e : loop_->events()) {
-      if (e.kind == "safety-stop") at_s = e.time_s;
+      if (e.kind == "safety-stop" || e.kind == "operator-stop") at_s = e.time_s;
     }
     const QDateTime when = started_.addMSecs(static_cast<qint64>(std::llround(at_s * 1e3)));
     stop_reason_ = QString::fromStdString(st.stop_reason);
@@ -366,7 +374,7 @@ nlohmann::json LiveNavigation::stop() {
     if (!failure.empty()) figures["deformation_failure"] = failure;
   }
   loop_.reset();
-  deformation_.reset();
+  retireDeformation();
   auto& scene = display_->scene();
   for (const auto& tool : kTools) scene.remove(tool.object);
   scene.remove(kUltrasoundObject);

@@ -108,6 +108,10 @@ class LiveNavigation : public QObject {
   LiveNavigationSetup setup_;
   std::unique_ptr<MeshLocator> locator_;
   std::shared_ptr<LiveDeformation> deformation_;
+  /// Deformations of ended runs whose sweep may still be building: released
+  /// by poll() once built, so the GUI thread never waits for the builder.
+  std::vector<std::shared_ptr<LiveDeformation>> retired_deformations_;
+  void retireDeformation();
   QElapsedTimer clock_;
   QDateTime started_;
   bool stop_reported_ = false;
