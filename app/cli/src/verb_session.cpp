@@ -1,5 +1,6 @@
 // `mrsns-cli session create|run|info|steps`: the workstation's session and
 // workflow steps, headless (the same calls the GUI makes).
+#include <array>
 #include <iostream>
 #include <optional>
 #include <sstream>
@@ -49,6 +50,23 @@ std::optional<Dropout> parseDropout(const std::string& text) {
   }
   if (!(d.start_s >= 0.0 && d.duration_s > 0.0)) return std::nullopt;
   return d;
+}
+
+// "RTDE,SCRIPT,DASHBOARD": three TCP ports (UR: 30004,30003,29999).
+std::optional<std::array<int, 3>> parsePorts(const std::string& text) {
+  std::array<int, 3> ports{};
+  std::istringstream in(text);
+  std::string item;
+  std::size_t n = 0;
+  while (std::getline(in, item, ',')) {
+    if (n == 3 || item.empty() || item.find_first_not_of("0123456789") != std::string::npos || item.size() > 5) {
+      return std::nullopt;
+    }
+    ports[n++] = std::stoi(item);
+    if (ports[n - 1] < 1 || ports[n - 1] > 65535) return std::nullopt;
+  }
+  if (n != 3 || text.back() == ',') return std::nullopt;
+  return ports;
 }
 
 void addNavigationFlags(const std::string& step, const std::string& robot, const std::string& dropout,
@@ -177,6 +195,8 @@ void registerSessionVerbs(CLI::App& app, GlobalOptions& options, VerbList& verbs
     bool progress = false;
     std::string robot;
     std::string dropout;
+    std::string robot_host;
+    std::string robot_ports;
   };
   auto args = std::make_shared<RunArgs>();
   auto* run = group->add_subcommand("run", "Run one workflow step on a session (see 'session steps')");
@@ -186,7 +206,15 @@ void registerSessionVerbs(CLI::App& app, GlobalOptions& options, VerbList& verbs
   run->add_flag("--progress", args->progress, "print progress lines on stderr");
   run->add_option("--robot", args->robot,
                   "navigation: the robot the loop drives (auto: simulated when the session has a plan)")
-      ->check(CLI::IsMember({"auto", "none", "simulated"}));
+      ->check(CLI::IsMember({"auto", "none", "simulated", "ur"}));
+  run->add_option("--robot-host", args->robot_host, "navigation --robot ur: the UR controller's address (127.0.0.1)");
+  run->add_option("--robot-ports", args->robot_ports,
+                  "navigation --robot ur: the controller's ports RTDE,SCRIPT,DASHBOARD (30004,30003,29999)")
+      ->check(CLI::Validator(
+          [](std::string& text) -> std::string {
+            return parsePorts(text) ? std::string() : "expected RTDE,SCRIPT,DASHBOARD ports, got '" + text + "'";
+          },
+          "RTDE,SCRIPT,DASHBOARD"));
   run->add_option("--tracker-dropout", args->dropout,
                   "navigation, connect-devices: simulated tracker loss TOOL:START_S:DURATION_S "
                   "(e.g. PatientToTracker:2.2:1)")
@@ -206,6 +234,17 @@ void registerSessionVerbs(CLI::App& app, GlobalOptions& options, VerbList& verbs
     }
     auto params = parseParams(args->params);
     addNavigationFlags(args->step, args->robot, args->dropout, params);
+    if (!args->robot_host.empty() || !args->robot_ports.empty()) {
+      if (args->step != "navigation" || params.value("robot", "") != "ur") {
+        throw InvalidArgumentError("--robot-host and --robot-ports apply to the navigation step with --robot ur");
+      }
+      if (!args->robot_host.empty()) params["ur_host"] = args->robot_host;
+      if (const auto ports = args->robot_ports.empty() ? std::nullopt : parsePorts(args->robot_ports)) {
+        params["ur_rtde_port"] = (*ports)[0];
+        params["ur_script_port"] = (*ports)[1];
+        params["ur_dashboard_port"] = (*ports)[2];
+      }
+    }
     const auto result = workflow::runStep(session, args->step, params, context);
     if (!result.ok) {
       throw ComputationError("step '" + args->step + "' did not succeed: " + result.summary);
