@@ -211,14 +211,17 @@ TEST(NavigationUr, PatientLossStopsTheControllersArmThroughTheSupervisor) {
 TEST(NavigationUr, StopLatencyOverRepeatedLosses) {
   const char* env = std::getenv("MRSNS_NAVUR_LOSSES");
   const int n = env ? std::max(1, std::atoi(env)) : 1;
+  std::vector<LossFigures> losses;
+  for (int i = 0; i < n; ++i) {
+    losses.push_back(patientLoss({}, i % 2 == 0 ? 2.2 : 0.7));
+    if (HasFailure()) return;
+  }
   for (const char* phase : {"Advancing", "Aligning"}) {
     double cycles = 0, ms = 0, rest = 0, ms_max = 0, rest_max = 0;
     std::int64_t cycles_max = 0;
     int count = 0;
-    for (int i = 0; i < n; ++i) {
-      if ((i % 2 == 0) != (std::string(phase) == "Advancing")) continue;
-      const auto f = patientLoss({}, i % 2 == 0 ? 2.2 : 0.7);
-      if (HasFailure()) return;
+    for (const auto& f : losses) {
+      if (f.from != phase) continue;
       ++count;
       cycles += static_cast<double>(f.cycles);
       cycles_max = std::max(cycles_max, f.cycles);
@@ -229,8 +232,8 @@ TEST(NavigationUr, StopLatencyOverRepeatedLosses) {
     }
     if (count == 0) continue;
     std::printf(
-        "navur stop latency, %d losses (%s at the loss): %.2f cycles mean (max %lld), %.3f ms mean (max %.3f), "
-        "arm at rest %.3f s after the stop command mean (max %.3f)\n",
+        "navur stop latency, %d losses while %s: %.2f cycles mean (max %lld), %.3f ms mean (max %.3f), arm at "
+        "rest %.3f s after the stop command mean (max %.3f)\n",
         count, phase, cycles / count, static_cast<long long>(cycles_max), ms / count, ms_max, rest / count, rest_max);
   }
 }
