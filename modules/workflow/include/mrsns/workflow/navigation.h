@@ -189,7 +189,7 @@ struct NavigationStatus {
 
   // The robot (NavigationOptions::robot); with "none" only `robot` is set.
   std::string robot = "none";
-  bool robot_docked = false;     ///< the simulated arm is placed at the patient (first patient sample)
+  bool robot_docked = false;     ///< the arm's base is placed (first patient sample; "ur": from the calibration)
   std::string supervisor_state;  ///< robot::SupervisorState name: "Ready", "Advancing", "Stopped", ...
   std::string supervisor_stop;   ///< robot::StopReason name of the current stop ("PatientNotTracked"), else empty
   std::string last_transition;   ///< "cycle 812 Advancing -> Stopped (PatientNotTracked: ...) StopJ"
