@@ -1,16 +1,27 @@
 // mrsns-cli session run DIR navigation --robot ur --robot-host H --robot-ports RTDE,SCRIPT,DASHBOARD: the flags
 // reach the navigation step; nobody listening is exit 1 with one line naming host:port; no robot calibration
-// is exit 1 saying which step to run; malformed ports are usage errors (exit 2).
+// is exit 1 saying which step to run; malformed ports are usage errors (exit 2); against `mrsns-cli robot-sim`
+// in another process a tracker loss stops the controller's arm through the supervisor.
+#include <fcntl.h>
 #include <gtest/gtest.h>
 #include <netinet/in.h>
+#include <signal.h>
+#include <spawn.h>
 #include <sys/socket.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <chrono>
+#include <memory>
 #include <nlohmann/json.hpp>
+#include <thread>
+#include <vector>
 
 #include "cli_runner.h"
 #include "test_data.h"
+
+extern char** environ;
 
 namespace mrsns::test {
 namespace {
@@ -52,6 +63,87 @@ TEST(CliNavigationUr, NobodyListeningIsExitOneWithOneLineNamingHostAndPort) {
   EXPECT_EQ(lines(r.err), 1u) << r.err;
   EXPECT_NE(r.err.find("127.0.0.1:" + std::to_string(port)), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("UR controller"), std::string::npos) << r.err;
+}
+
+bool accepts(int port) {
+  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  a.sin_port = htons(static_cast<std::uint16_t>(port));
+  const bool ok = ::connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) == 0;
+  ::close(fd);
+  return ok;
+}
+
+// `mrsns-cli robot-sim --port-offset N` in the background, killed (by its pid) when the test ends.
+class RobotSimProcess {
+ public:
+  explicit RobotSimProcess(int offset) {
+    std::vector<std::string> args = {cliBinary().string(), "robot-sim", "--port-offset",  std::to_string(offset),
+                                     "--duration",         "30",        "--unlock-delay", "0"};
+    std::vector<char*> argv;
+    for (auto& a : args) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    posix_spawn_file_actions_t actions;
+    posix_spawn_file_actions_init(&actions);
+    posix_spawn_file_actions_addopen(&actions, 1, "/dev/null", O_WRONLY, 0);
+    posix_spawn_file_actions_addopen(&actions, 2, "/dev/null", O_WRONLY, 0);
+    if (posix_spawn(&pid_, argv[0], &actions, nullptr, argv.data(), environ) != 0) pid_ = -1;
+    posix_spawn_file_actions_destroy(&actions);
+  }
+  ~RobotSimProcess() {
+    if (pid_ <= 0) return;
+    ::kill(pid_, SIGKILL);
+    int status = 0;
+    ::waitpid(pid_, &status, 0);
+  }
+  RobotSimProcess(const RobotSimProcess&) = delete;
+  RobotSimProcess& operator=(const RobotSimProcess&) = delete;
+  [[nodiscard]] bool alive() const {
+    int status = 0;
+    return pid_ > 0 && ::waitpid(pid_, &status, WNOHANG) == 0;
+  }
+
+ private:
+  pid_t pid_ = -1;
+};
+
+TEST(CliNavigationUr, AgainstTheRobotSimulatorATrackerLossStopsTheControllersArm) {
+  // robot-sim binds 29999, 30002, 30003, 30004 + offset: offset from a port that was just free.
+  std::unique_ptr<RobotSimProcess> sim;
+  int rtde = 0;
+  for (int attempt = 0; attempt < 3 && !sim; ++attempt) {
+    rtde = closedPort();
+    if (rtde < 30004 || rtde - 30004 > 35000) continue;
+    sim = std::make_unique<RobotSimProcess>(rtde - 30004);
+    const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+    while (sim->alive() && !accepts(rtde) && std::chrono::steady_clock::now() < end) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    if (!sim->alive() || !accepts(rtde)) sim.reset();  // a port of the four was taken: another offset
+  }
+  ASSERT_TRUE(sim) << "robot-sim did not start";
+  const auto dir = scratchDirectory("navur_cli") / "sim";
+  ASSERT_EQ(runCli({"session", "create", dir.string()}).exit_code, 0);
+  ASSERT_EQ(runCli({"session", "run", dir.string(), "robot-calibration"}).exit_code, 0);
+  const std::string ports = std::to_string(rtde) + "," + std::to_string(rtde - 1) + "," + std::to_string(rtde - 5);
+  const auto r = runCli({"session", "run", dir.string(), "navigation", "--robot", "ur", "--robot-host", "127.0.0.1",
+                         "--robot-ports", ports, "--tracker-dropout", "PatientToTracker:2.2:1", "--param",
+                         "duration_s=3.2", "--param", "deformation_cases=0",
+                         // stops must come from tracking, not from this shared machine's scheduling
+                         "--param", "max_missed_cycles=200", "--param", "silence_timeout_s=1", "--param",
+                         "ur_silence_s=0.5", "--json"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["robot"], "ur");
+  EXPECT_TRUE(j["robot_stopped"].get<bool>()) << r.out;
+  EXPECT_NE(j["stop_reason"].get<std::string>().find("PatientNotTracked"), std::string::npos) << j["stop_reason"];
+  EXPECT_EQ(j["supervisor_state"], "Stopped");
+  EXPECT_GE(j["stop_latency_cycles"].get<int>(), 1);
+  EXPECT_LE(j["arm_speed_end_rad_s"].get<double>(), 1e-6);
+  EXPECT_GT(j["figures"]["robot"]["motion_commands"].get<int>(), 0);
+  EXPECT_EQ(j["figures"]["robot"]["motion_commands_after_stop"], 0);
 }
 
 TEST(CliNavigationUr, MalformedPortsAreUsageErrorsAndTheFlagsNeedTheUrRobot) {
