@@ -287,6 +287,32 @@ TEST(NavigationUr, TheNavigationStepDrivesTheControllerFromTheSessionsRobotCalib
   }
 }
 
+// After a tracking stop the same acknowledge path as with the simulated arm: accepted once the patient is back
+// (Ready), and a new placement moves the controller's arm again.
+TEST(NavigationUr, RearmAfterATrackingStopAndStartAgainMovesTheControllersArm) {
+  robot::UrSimulator sim(ephemeral());
+  auto o = urOptions(sim, {});
+  o.devices.dropout_tool = "PatientToTracker";
+  o.devices.dropout_start_s = 2.2;
+  o.devices.dropout_duration_s = 1.2;
+  NavigationLoop loop(o);
+  loop.start();
+  ASSERT_TRUE(waitFor([&] { return loop.status().robot_stopped; }, 15000ms)) << describe(loop.robotTransitions());
+  EXPECT_EQ(loop.status().supervisor_stop, "PatientNotTracked");
+  // (Refusal while still lost is the same code path as with the simulated arm: test_navigation_robot.cpp.)
+  ASSERT_TRUE(waitFor([&] { return loop.rearm(); }, 8000ms)) << describe(loop.robotTransitions());
+  // The figures are published at the end of the cycle that ran the acknowledge.
+  ASSERT_TRUE(waitFor([&] { return loop.status().supervisor_state == "Ready"; }, 1000ms))
+      << loop.status().supervisor_state << describe(loop.robotTransitions());
+  const auto commands = sim.stats().script_commands;
+  const auto at_rest = sim.armState();
+  ASSERT_TRUE(loop.startRobot());
+  EXPECT_TRUE(waitFor([&] { return jointTravel(sim.armState(), at_rest) > 1e-4; }, 5000ms))
+      << "the controller's arm did not move after the new start";
+  EXPECT_GT(sim.stats().script_commands, commands);
+  loop.stop();
+}
+
 TEST(NavigationUr, ControllerShutDownMidRunIsASupervisorStopAndRecordingGoesOn) {
   auto sim = std::make_unique<robot::UrSimulator>(ephemeral());
   const auto path = test::scratchDirectory("navur") / "shutdown.mhd";
@@ -314,6 +340,13 @@ TEST(NavigationUr, ControllerShutDownMidRunIsASupervisorStopAndRecordingGoesOn) 
   const auto batches = loop.status().frames_recorded;
   EXPECT_TRUE(waitFor([&] { return loop.status().frames_recorded > batches + 10; }, 5000ms));
   EXPECT_TRUE(loop.status().running);
+  // The loop does not reconnect: re-arming is refused with what to do.
+  EXPECT_FALSE(loop.rearm());
+  bool refused = false;
+  for (const auto& e : loop.events()) {
+    refused |= e.kind == "rearm-refused" && e.message.find("not connected") != std::string::npos;
+  }
+  EXPECT_TRUE(refused);
   loop.stop();
   sim.reset();
   const auto status = loop.status();

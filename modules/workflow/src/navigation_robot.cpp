@@ -312,6 +312,13 @@ bool NavigationRobot::post(std::function<bool(robot::ControlLoop&)> request, std
 }
 
 bool NavigationRobot::rearm(std::string& why) {
+  // The loop does not reconnect a lost controller: acknowledging would only stop again on the next cycle.
+  if (!sim_arm_ && !arm_->state().connected) {
+    why = "the UR controller at " + options_.ur_host +
+          " is not connected: check it (power, network, remote "
+          "control), then start navigation again";
+    return false;
+  }
   {
     std::lock_guard lock(feed_mutex_);
     if (docked_ && !trackingGood(feed_, clock_())) {
