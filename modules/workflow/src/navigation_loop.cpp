@@ -169,13 +169,22 @@ bool NavigationLoop::rearm() {
     status_.stop_reason.clear();
     return true;
   }
+  std::uint64_t stops_before = 0;
+  {
+    std::lock_guard lock(mutex_);
+    stops_before = safety_stops_seen_;
+  }
   std::string why;
   const bool ok = robot_->rearm(why);
   std::lock_guard lock(mutex_);
   if (ok) {
-    status_.robot_stopped = false;
-    status_.operator_stopped = false;
-    status_.stop_reason.clear();
+    // A stop that pollRobot() reported after the acknowledge (tracking lost
+    // again at once) stands; one it has not read yet is set after this.
+    if (safety_stops_seen_ == stops_before) {
+      status_.robot_stopped = false;
+      status_.operator_stopped = false;
+      status_.stop_reason.clear();
+    }
     addEvent(elapsed(), "rearmed", "supervisor acknowledged the stop: the robot waits in Ready");
   } else {
     addEvent(elapsed(), "rearm-refused", why);
@@ -416,6 +425,7 @@ void NavigationLoop::pollRobot() {
       StopHandler handler;
       {
         std::lock_guard lock(mutex_);
+        ++safety_stops_seen_;
         status_.robot_stopped = true;
         status_.operator_stopped = false;
         status_.stop_reason = reason;

@@ -22,6 +22,30 @@ namespace detail {
 
 namespace {
 
+// Forwards to the arm and counts the motion commands it accepts.
+class MotionCountingArm final : public robot::RobotArm {
+ public:
+  MotionCountingArm(std::shared_ptr<robot::RobotArm> arm, std::shared_ptr<std::atomic<std::uint64_t>> accepted)
+      : arm_(std::move(arm)), accepted_(std::move(accepted)) {}
+  robot::ArmState state() const override { return arm_->state(); }
+  bool servoJ(const robot::Joints& q_target) override { return counted(arm_->servoJ(q_target)); }
+  bool speedL(const robot::Twist& twist, double acceleration_mm_s2) override {
+    return counted(arm_->speedL(twist, acceleration_mm_s2));
+  }
+  bool stopJ(double deceleration_rad_s2) override { return arm_->stopJ(deceleration_rad_s2); }
+  bool protectiveStop() override { return arm_->protectiveStop(); }
+  bool unlockProtectiveStop() override { return arm_->unlockProtectiveStop(); }
+  double controlPeriodS() const override { return arm_->controlPeriodS(); }
+
+ private:
+  bool counted(bool accepted) {
+    if (accepted) accepted_->fetch_add(1);
+    return accepted;
+  }
+  std::shared_ptr<robot::RobotArm> arm_;
+  std::shared_ptr<std::atomic<std::uint64_t>> accepted_;
+};
+
 constexpr std::size_t kCycleRing = 4096;  // 8 s of cycle start times at 500 Hz
 
 bool atRest(const robot::ArmState& arm) {
@@ -94,7 +118,8 @@ NavigationRobot::NavigationRobot(const NavigationRobotOptions& options, double m
                                 static_cast<std::uint64_t>(std::ceil(options.ur_silence_s * options.control_rate_hz)));
   }
   control.guidance.advance_speed_mm_s = options.advance_speed_mm_s;
-  control_ = std::make_unique<robot::ControlLoop>(arm_, kinematics_, setup, control);
+  control_ = std::make_unique<robot::ControlLoop>(std::make_shared<MotionCountingArm>(arm_, arm_motion_accepted_),
+                                                  kinematics_, setup, control);
   figures_.robot = sim_arm_ ? "simulated" : "ur";
   figures_.supervisor_state = robot::toString(control_->supervisor().state());
   // A real UR's stopping-time limit is a safety setting of the controller; the UR5 CB3 default is what the
@@ -272,12 +297,16 @@ void NavigationRobot::onCycle(const robot::CycleReport& report) {
   f.arm_speed_rad_s = arm.qd.cwiseAbs().maxCoeff();
   f.flange_speed_mm_s = arm.flange_twist.head<3>().norm();
   f.depth_mm = report.guidance.depth_mm;
-  if (report.motion_sent) {
-    ++f.motion_commands;
-    if (report.decision.state == robot::SupervisorState::Stopped ||
-        report.decision.state == robot::SupervisorState::Fault) {
-      ++f.motion_commands_after_stop;
-    }
+  if (report.motion_sent) ++f.motion_commands;
+  // Counted at the arm, not from the loop's report (which never sends motion
+  // in a stopped state by construction): any motion the arm accepted in a
+  // cycle that ends with the supervisor stopped is a violation.
+  const std::uint64_t accepted = arm_motion_accepted_->load();
+  const std::uint64_t new_motion = accepted - arm_motion_checked_;
+  arm_motion_checked_ = accepted;
+  if (new_motion > 0 &&
+      (supervisor.state() == robot::SupervisorState::Stopped || supervisor.state() == robot::SupervisorState::Fault)) {
+    f.motion_commands_after_stop += new_motion;
   }
   if (latency_cycles >= 0) {
     ++f.robot_stops;
@@ -293,15 +322,27 @@ bool NavigationRobot::post(std::function<bool(robot::ControlLoop&)> request, std
     why = docked_ ? "the robot's control loop has stopped" : "the robot is not docked yet (no patient sample so far)";
     return false;
   }
-  std::packaged_task<bool(robot::ControlLoop&)> task(std::move(request));
+  // 0 pending, 1 running, 2 given up by the caller: a request the caller
+  // reported as not done must never run later (a late resume would move the
+  // arm after the operator was told the re-arm failed).
+  auto phase = std::make_shared<std::atomic<int>>(0);
+  std::packaged_task<bool(robot::ControlLoop&)> task([phase, request = std::move(request)](robot::ControlLoop& c) {
+    int pending = 0;
+    if (!phase->compare_exchange_strong(pending, 1)) return false;
+    return request(c);
+  });
   auto result = task.get_future();
   {
     std::lock_guard lock(request_mutex_);
     requests_.push_back(std::move(task));
   }
   if (result.wait_for(std::chrono::seconds(2)) != std::future_status::ready) {
-    why = "the robot's control loop did not answer within 2 s";
-    return false;
+    int pending = 0;
+    if (phase->compare_exchange_strong(pending, 2)) {
+      why = "the robot's control loop did not answer within 2 s (nothing was done)";
+      return false;
+    }
+    result.wait();  // it started meanwhile: its outcome is the answer
   }
   try {
     return result.get();
@@ -345,8 +386,12 @@ bool NavigationRobot::rearm(std::string& why) {
     return true;
   }
   if (why.empty()) {
-    why = "the supervisor refused to acknowledge: it is not stopped, or the arm still moves (state " +
-          std::string(robot::toString(control_->supervisor().state())) + ")";
+    std::string state;
+    {
+      std::lock_guard lock(status_mutex_);  // the supervisor itself belongs to the control thread
+      state = figures_.supervisor_state;
+    }
+    why = "the supervisor refused to acknowledge: it is not stopped, or the arm still moves (state " + state + ")";
   }
   return false;
 }

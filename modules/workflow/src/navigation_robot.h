@@ -99,6 +99,10 @@ class NavigationRobot {
   robot::Ur5Kinematics kinematics_;
   std::shared_ptr<robot::RobotArm> arm_;
   std::shared_ptr<robot::SimulatedArm> sim_arm_;  // null with "ur": the controller steps its own arm
+  // Motion commands (servoJ, speedL) the arm accepted, counted between the
+  // ControlLoop and the arm: checks the loop's own report from outside.
+  std::shared_ptr<std::atomic<std::uint64_t>> arm_motion_accepted_ = std::make_shared<std::atomic<std::uint64_t>>(0);
+  std::uint64_t arm_motion_checked_ = 0;  // control thread only
   // Set when docking (loop thread), read-only afterwards.
   std::unique_ptr<robot::ControlLoop> control_;
   Eigen::Isometry3d tracker_T_base_ = Eigen::Isometry3d::Identity();

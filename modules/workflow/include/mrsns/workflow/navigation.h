@@ -288,6 +288,9 @@ class NavigationLoop {
   std::unique_ptr<detail::NavigationRobot> robot_;
   TransformRepository::Query robot_tool_, robot_patient_;
   std::size_t robot_transitions_seen_ = 0;
+  // Safety stops reported so far (guarded by mutex_): rearm() clears the stop
+  // only if no new one came in while the supervisor acknowledged.
+  std::uint64_t safety_stops_seen_ = 0;
   double drill_dropout_start_s_ = std::numeric_limits<double>::infinity();
   double drill_dropout_end_s_ = -std::numeric_limits<double>::infinity();
 
