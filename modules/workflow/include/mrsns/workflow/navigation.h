@@ -200,7 +200,8 @@ struct NavigationStatus {
   double flange_speed_mm_s = 0.0;
   double depth_mm = 0.0;  ///< commanded drill depth past the entry
   std::uint64_t motion_commands = 0;
-  std::uint64_t motion_commands_after_stop = 0;  ///< servoJ sent while Stopped/Fault (must stay 0)
+  std::uint64_t motion_commands_after_stop =
+      0;  ///< motion commands the arm accepted while the supervisor was Stopped/Fault, counted at the arm (must stay 0)
   std::uint64_t robot_stops = 0;
   /// Last stop: from the first lost or stale tracking sample (its arrival on the loop clock; for a stale
   /// pose, the moment it became older than the limit; for a disconnection, when the loop saw it) to the
