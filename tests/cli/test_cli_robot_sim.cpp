@@ -8,6 +8,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <thread>
 
@@ -47,6 +48,14 @@ class Background {
       ::waitpid(pid_, &status, 0);
     }
   }
+  /// False once the process has exited (e.g. a port of its set was taken).
+  bool running() {
+    if (pid_ <= 0 || done_) return false;
+    int status = 0;
+    if (::waitpid(pid_, &status, WNOHANG) == 0) return true;
+    done_ = true;
+    return false;
+  }
   Background(const Background&) = delete;
   Background& operator=(const Background&) = delete;
   /// SIGTERM, then the exit code and stdout.
@@ -70,14 +79,23 @@ class Background {
 }  // namespace
 
 TEST(CliRobotSim, StatusOfTheSimulatorOverLoopback) {
-  const auto offset = std::to_string(portOffset());
-  Background sim({"robot-sim", "--port-offset", offset, "--duration", "30", "--json"});
+  // The simulator's four ports (UR numbers + offset) lie in the kernel's
+  // ephemeral range, so another test's connection may hold one: the
+  // simulator then exits at once (cannot listen) and the next offset is tried.
+  std::unique_ptr<Background> sim;
+  int port_offset = 0;
   CliResult status;
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(15);
-  do {
-    std::this_thread::sleep_for(std::chrono::milliseconds(100));
-    status = runCli({"robot-status", "--port-offset", offset, "--json"});
-  } while (status.exit_code != 0 && std::chrono::steady_clock::now() < deadline);
+  for (int attempt = 0; attempt < 5 && status.exit_code != 0; ++attempt) {
+    port_offset = portOffset() + 997 * attempt;
+    const auto offset = std::to_string(port_offset);
+    sim = std::make_unique<Background>(
+        std::vector<std::string>{"robot-sim", "--port-offset", offset, "--duration", "30", "--json"});
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(15);
+    do {
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+      status = runCli({"robot-status", "--port-offset", offset, "--json"});
+    } while (status.exit_code != 0 && sim->running() && std::chrono::steady_clock::now() < deadline);
+  }
   ASSERT_EQ(status.exit_code, 0) << status.err;
   const auto j = nlohmann::json::parse(status.out);
   EXPECT_EQ(j["robot_mode"], "RUNNING");
@@ -90,12 +108,12 @@ TEST(CliRobotSim, StatusOfTheSimulatorOverLoopback) {
   EXPECT_EQ(j["tcp_position_mm"].size(), 3u);
   EXPECT_GT(j["rtde_packages"].get<int>(), 0);
 
-  const auto [code, out] = sim.stop();
+  const auto [code, out] = sim->stop();
   EXPECT_EQ(code, 0);
   const auto s = nlohmann::json::parse(out);
   EXPECT_EQ(s["host"], "127.0.0.1");
-  EXPECT_EQ(s["ports"]["rtde"].get<int>(), 30004 + portOffset());
-  EXPECT_EQ(s["ports"]["dashboard"].get<int>(), 29999 + portOffset());
+  EXPECT_EQ(s["ports"]["rtde"].get<int>(), 30004 + port_offset);
+  EXPECT_EQ(s["ports"]["dashboard"].get<int>(), 29999 + port_offset);
   EXPECT_GT(s["cycles"].get<int>(), 0);
   EXPECT_GE(s["clients_connected"].get<int>(), 3);  // dashboard, RTDE and script connections of robot-status
   EXPECT_GT(s["dashboard_commands"].get<int>(), 0);
