@@ -240,3 +240,60 @@ TEST(SequenceSynthetic, StreamingReaderOnUncompressedFileSeeks) {
 
 }  // namespace
 }  // namespace mrsns
+
+namespace mrsns {
+namespace {
+
+// A PLUS tracker buffer: frames with transforms and no image, written as
+// DimSize = 0 0 N with no pixel data (PLUS's TrackerBuffer files).
+TEST(SequenceSynthetic, PlusTrackerBufferWithoutImagesReadsAndRoundTrips) {
+  const auto dir = test::scratchDirectory("tracker-buffer");
+  std::string text =
+      "ObjectType = Image\nNDims = 3\nAnatomicalOrientation = RAI\nBinaryData = True\nCompressedData = False\n"
+      "DimSize = 0 0 3\nElementSpacing = 1 1 1\nOffset = 0 0 0\nTransformMatrix = 1 0 0 0 1 0 0 0 1\n"
+      "ElementType = MET_UCHAR\nKinds = domain domain list\n";
+  for (int i = 0; i < 3; ++i) {
+    const std::string k = "Seq_Frame000" + std::to_string(i) + "_";
+    text += k + "FrameNumber = " + std::to_string(i) + "\n";
+    text += k + "ProbeToReferenceTransform = 1 0 0 0 0 1 0 0 0 0 1 " + std::to_string(2 * i) + " 0 0 0 1\n";
+    text += k + "ProbeToReferenceTransformStatus = OK\n";
+    text += k + "Timestamp = " + std::to_string(10 + i) + ".5\n";
+    text += k + "ImageStatus = INVALID\n";
+  }
+  text += "ElementDataFile = LOCAL\n";
+  test::spit(dir / "TrackerBuffer.mha", text);
+  const TrackedSequence seq = io::readSequence(dir / "TrackerBuffer.mha");
+  ASSERT_EQ(seq.frames.size(), 3u);
+  EXPECT_TRUE(seq.trackingOnly());
+  EXPECT_EQ(seq.frameBytes(), 0u);
+  EXPECT_TRUE(seq.frames[1].pixels.empty());
+  EXPECT_EQ(seq.frames[2].transforms.at("ProbeToReference").matrix(2, 3), 4.0);
+  EXPECT_EQ(seq.frames[1].timestamp, 11.5);
+  EXPECT_EQ(seq.frames[0].image_status, "INVALID");
+
+  // Every MetaImage form writes and reads it back; NRRD cannot hold it and says so.
+  for (const char* name : {"round.mha", "round.mhd"}) {
+    for (const bool compress : {false, true}) {
+      SCOPED_TRACE(std::string(name) + (compress ? " compressed" : " raw"));
+      io::writeSequence(dir / name, seq, test::writeOptions(compress));
+      test::expectSameSequence(seq, io::readSequence(dir / name));
+      EXPECT_NE(test::slurp(dir / name).find("DimSize = 0 0 3"), std::string::npos);
+    }
+  }
+  try {
+    io::writeSequence(dir / "round.seq.nrrd", seq);
+    ADD_FAILURE() << "NRRD accepted a sequence without images";
+  } catch (const InvalidArgumentError& e) {
+    EXPECT_NE(std::string(e.what()).find(".mha"), std::string::npos) << e.what();
+  }
+  // Only an image with both in-plane sizes zero is a tracker buffer.
+  test::spit(dir / "half.mha", [&] {
+    std::string t = text;
+    t.replace(t.find("DimSize = 0 0 3"), 15, "DimSize = 0 4 3");
+    return t;
+  }());
+  EXPECT_THROW((void)io::readSequence(dir / "half.mha"), FormatError);
+}
+
+}  // namespace
+}  // namespace mrsns

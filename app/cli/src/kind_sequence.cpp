@@ -43,6 +43,7 @@ Report summarizeSequence(const std::filesystem::path& path) {
     size.push_back(g.size[2]);
     spacing.push_back(g.spacing[2]);
   }
+  j["tracking_only"] = seq.trackingOnly();
   j["image"] = {{"size", size},
                 {"pixel_type", pixelTypeName(seq.pixel_format.scalar)},
                 {"components", seq.pixel_format.components},
@@ -112,11 +113,15 @@ Report summarizeSequence(const std::filesystem::path& path) {
   std::ostringstream text;
   text << path.string() << ": tracked-frame sequence, " << formatName(storage)
        << (storage.compressed ? ", zlib-compressed" : ", uncompressed") << "\n";
-  text << "Frames: " << seq.frames.size() << " of " << g.size[0] << "x" << g.size[1];
-  if (g.dimensions == 3) text << "x" << g.size[2];
-  text << " " << pixelTypeName(seq.pixel_format.scalar);
-  if (seq.pixel_format.components > 1) text << " x" << seq.pixel_format.components;
-  text << ", spacing " << g.spacing[0] << " x " << g.spacing[1] << ", orientation " << seq.orientation << "\n";
+  if (seq.trackingOnly()) {
+    text << "Frames: " << seq.frames.size() << ", no images (a tracker buffer)\n";
+  } else {
+    text << "Frames: " << seq.frames.size() << " of " << g.size[0] << "x" << g.size[1];
+    if (g.dimensions == 3) text << "x" << g.size[2];
+    text << " " << pixelTypeName(seq.pixel_format.scalar);
+    if (seq.pixel_format.components > 1) text << " x" << seq.pixel_format.components;
+    text << ", spacing " << g.spacing[0] << " x " << g.spacing[1] << ", orientation " << seq.orientation << "\n";
+  }
   text << "Images OK: " << images_ok << " of " << seq.frames.size() << "\n";
   text << "Time:\n" << time_text;
   text << "Transforms:\n" << (transforms.empty() ? "  (none)\n" : transform_text.str());

@@ -247,6 +247,7 @@ struct SequenceReader::Impl {
       throw InvalidArgumentError("frame buffer of " + std::to_string(out.size()) + " bytes for '" + source +
                                  "', whose frames have " + std::to_string(frame_bytes) + " bytes");
     }
+    if (frame_bytes == 0) return;  // a tracker buffer: no pixels to read
     if (storage.compressed) {
       if (!z_ready || index < next_frame) restartInflate();
       if (next_frame < index) skip_buffer.resize(frame_bytes);

@@ -195,7 +195,7 @@ std::string frameKeyPrefix(std::size_t index, std::size_t frame_count) {
 void checkDeclaredSizes(const TrackedSequence& sequence, std::uint64_t frame_count, const std::string& source,
                         const SequenceReadOptions& options) {
   const auto& g = sequence.geometry;
-  for (int i = 0; i < 3; ++i) {
+  for (int i = 0; i < 3 && !sequence.trackingOnly(); ++i) {
     if (g.size[static_cast<std::size_t>(i)] <= 0 && frame_count > 0) {
       throw FormatError("'" + source + "': image size " + std::to_string(g.size[0]) + "x" + std::to_string(g.size[1]) +
                         "x" + std::to_string(g.size[2]) + " has an empty axis");
@@ -249,7 +249,8 @@ void checkWritable(const TrackedSequence& sequence, const std::string& target) {
   }
   const auto& g = sequence.geometry;
   if (g.dimensions != 2 && g.dimensions != 3) fail("frames must be 2D or 3D");
-  if (g.size[0] <= 0 || g.size[1] <= 0 || g.size[2] <= 0 || (g.dimensions == 2 && g.size[2] != 1)) {
+  if (!sequence.trackingOnly() &&
+      (g.size[0] <= 0 || g.size[1] <= 0 || g.size[2] <= 0 || (g.dimensions == 2 && g.size[2] != 1))) {
     fail("image size " + std::to_string(g.size[0]) + "x" + std::to_string(g.size[1]) + "x" + std::to_string(g.size[2]) +
          " is empty or not 2D");
   }

@@ -176,6 +176,11 @@ void writeSequence(const std::filesystem::path& path, const TrackedSequence& seq
                    const SequenceWriteOptions& options) {
   const SequenceFormat format = options.format ? *options.format : sequenceFormatFromPath(path);
   detail::checkWritable(sequence, path.string());
+  if (format == SequenceFormat::Nrrd && sequence.trackingOnly()) {
+    throw InvalidArgumentError("cannot write sequence to '" + path.string() +
+                               "': it has no images (a tracker buffer), which NRRD cannot hold (its sizes must be "
+                               "positive); write it as .mha or .mhd");
+  }
   if (options.compress && (options.compression_level < 1 || options.compression_level > 9)) {
     throw InvalidArgumentError("compression level " + std::to_string(options.compression_level) + " for '" +
                                path.string() + "' is outside 1..9");

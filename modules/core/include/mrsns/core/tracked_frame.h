@@ -91,6 +91,10 @@ struct TrackedSequence {
   /// Bytes of the pixel data of one frame.
   [[nodiscard]] std::size_t frameBytes() const { return geometry.pixelsPerFrame() * pixel_format.bytesPerPixel(); }
 
+  /// A tracker buffer: frames with transforms and no image (PLUS writes
+  /// them with DimSize = 0 0 N).
+  [[nodiscard]] bool trackingOnly() const { return geometry.size[0] == 0 && geometry.size[1] == 0; }
+
   /// Every transform name reported by at least one frame, sorted.
   [[nodiscard]] std::vector<std::string> transformNames() const {
     std::set<std::string> names;
