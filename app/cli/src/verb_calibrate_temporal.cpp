@@ -2,6 +2,7 @@
 // of PLUS recordings (probe moved up and down over a flat target).
 #include <algorithm>
 #include <sstream>
+#include <vector>
 
 #include "cli_context.h"
 #include "mrsns/core/error.h"
@@ -17,7 +18,8 @@ struct CalibrateTemporalOptions {
   std::string video;
   std::string sequence;
   std::string transform = "ProbeToReference";
-  double max_lag_ms = 500.0;
+  double max_lag_ms = 2000.0;
+  std::vector<int> clip;  // x y width height, MF pixels
 };
 
 std::vector<FramePose> probePoses(const TrackedSequence& s, const std::string& name, std::string& used) {
@@ -49,8 +51,15 @@ Report run(const CalibrateTemporalOptions& options) {
   }
   ultrasound::TemporalCalibrationOptions cal;
   cal.max_lag_s = options.max_lag_ms / 1000.0;
-  const auto r =
-      ultrasound::calibrateTemporal(ultrasound::trackerPositionSignal(poses), ultrasound::videoLineSignal(video), cal);
+  ultrasound::LineSignalOptions line;
+  if (!options.clip.empty()) {
+    line.clip_x = options.clip[0];
+    line.clip_y = options.clip[1];
+    line.clip_width = options.clip[2];
+    line.clip_height = options.clip[3];
+  }
+  const auto video_signal = ultrasound::videoLineSignal(video, line);
+  const auto r = ultrasound::calibrateTemporal(ultrasound::trackerPositionSignal(poses), video_signal, cal);
   Report report;
   report.json = Json{{"verb", "calibrate-temporal"},
                      {"transform", used},
@@ -60,12 +69,13 @@ Report run(const CalibrateTemporalOptions& options) {
                      {"polarity", r.polarity},
                      {"tracker_samples", r.tracker_samples},
                      {"video_samples", r.video_samples},
+                     {"video_frames", video.frames.size()},
                      {"tracker_motion_rms_mm", r.tracker_motion_rms},
                      {"video_motion_rms_px", r.video_motion_rms}};
   std::ostringstream text;
   text << "Tracker lag: " << r.tracker_lag_s * 1000.0 << " ms (> 0 when the tracker data lags the video), NCC "
-       << r.correlation << "\n  " << r.tracker_samples << " tracker samples (" << used << "), " << r.video_samples
-       << " video frames; motion " << r.tracker_motion_rms << " mm / " << r.video_motion_rms << " px RMS\n";
+       << r.correlation << "\n  " << r.tracker_samples << " tracker samples (" << used << "), line found in "
+       << r.video_samples << " of " << video.frames.size() << " video frames; motion " << r.tracker_motion_rms << " mm / " << r.video_motion_rms << " px RMS\n";
   report.text = text.str();
   return report;
 }
@@ -83,7 +93,14 @@ void registerCalibrateTemporalVerb(CLI::App& app, GlobalOptions& options, VerbLi
   sub->add_option("--sequence", opts->sequence, "one sequence holding both the frames and the probe transforms");
   sub->add_option("--transform", opts->transform, "probe transform (falls back to ProbeToTracker)")
       ->capture_default_str();
-  sub->add_option("--max-lag-ms", opts->max_lag_ms, "lags searched in [-max, max]")->capture_default_str();
+  sub->add_option("--max-lag-ms", opts->max_lag_ms, "lags searched in [-max, max]")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  sub->add_option("--clip-rectangle", opts->clip,
+                  "X Y WIDTH HEIGHT: look for the target line only there (MF image pixels), e.g. below the "
+                  "transducer's ringing")
+      ->expected(4)
+      ->check(CLI::NonNegativeNumber);
   addJsonFlag(*sub, options);
   verbs.emplace_back(sub, [opts] { return run(*opts); });
 }

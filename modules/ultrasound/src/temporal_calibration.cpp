@@ -8,6 +8,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "mrsns/core/error.h"
+#include "mrsns/ultrasound/probe_calibration.h"
 
 namespace mrsns::ultrasound {
 namespace {
@@ -98,47 +99,132 @@ TimedSignal trackerPositionSignal(const std::vector<FramePose>& poses) {
   return s;
 }
 
-TimedSignal videoLineSignal(const TrackedSequence& sequence) {
+namespace {
+
+// The centre (sub-pixel) of the echo with the largest area above half the
+// profile's maximum; false when the profile is flat or dark.
+bool largestEchoCentre(const std::vector<double>& profile, double& centre) {
+  const double peak = *std::max_element(profile.begin(), profile.end());
+  if (peak < 32.0) return false;  // no echo on this scanline
+  const double threshold = 0.5 * peak;
+  double best_area = 0.0;
+  for (std::size_t i = 0; i < profile.size();) {
+    if (profile[i] <= threshold) {
+      ++i;
+      continue;
+    }
+    double area = 0.0, moment = 0.0;
+    for (; i < profile.size() && profile[i] > threshold; ++i) {
+      area += profile[i] - threshold;
+      moment += (profile[i] - threshold) * static_cast<double>(i);
+    }
+    if (area > best_area) {
+      best_area = area;
+      centre = moment / area;
+    }
+  }
+  return best_area > 0.0;
+}
+
+// y = a + b x through the scanline peaks: the line through two peaks that
+// most others lie near (every pair is tried: a few dozen peaks), then least
+// squares on those inliers.
+bool robustLine(const std::vector<Eigen::Vector2d>& points, double max_residual, std::size_t min_points, double& a,
+                double& b) {
+  if (points.size() < std::max<std::size_t>(min_points, 2)) return false;
+  std::size_t best_count = 0;
+  double best_a = 0.0, best_b = 0.0;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    for (std::size_t j = i + 1; j < points.size(); ++j) {
+      const double dx = points[j].x() - points[i].x();
+      if (std::abs(dx) < 1e-9) continue;
+      const double slope = (points[j].y() - points[i].y()) / dx;
+      const double intercept = points[i].y() - slope * points[i].x();
+      std::size_t count = 0;
+      for (const auto& p : points) count += std::abs(p.y() - (intercept + slope * p.x())) <= max_residual ? 1 : 0;
+      if (count > best_count) {
+        best_count = count;
+        best_a = intercept;
+        best_b = slope;
+      }
+    }
+  }
+  if (best_count < min_points) return false;
+  double sx = 0, sy = 0, sxx = 0, sxy = 0, n = 0;
+  for (const auto& p : points) {
+    if (std::abs(p.y() - (best_a + best_b * p.x())) > max_residual) continue;
+    sx += p.x();
+    sy += p.y();
+    sxx += p.x() * p.x();
+    sxy += p.x() * p.y();
+    n += 1.0;
+  }
+  const double den = n * sxx - sx * sx;
+  if (std::abs(den) < 1e-12) return false;
+  b = (n * sxy - sx * sy) / den;
+  a = (sy - b * sx) / n;
+  return true;
+}
+
+}  // namespace
+
+TimedSignal videoLineSignal(const TrackedSequence& sequence, const LineSignalOptions& options) {
   const auto& g = sequence.geometry;
+  if (sequence.trackingOnly()) {
+    throw InvalidArgumentError("line detection: the sequence has no images (a tracker buffer); give the video buffer");
+  }
   if (sequence.pixel_format.scalar != PixelType::UInt8 || sequence.pixel_format.components != 1 || g.size[2] != 1) {
     throw UnsupportedError("line detection needs 8-bit single-component 2D frames");
   }
   const int w = static_cast<int>(g.size[0]), h = static_cast<int>(g.size[1]);
+  cv::Rect roi(0, 0, w, h);
+  if (options.clip_width > 0 && options.clip_height > 0) {
+    roi &= cv::Rect(options.clip_x, options.clip_y, options.clip_width, options.clip_height);
+  }
+  if (roi.width < 1 || roi.height < 8) {
+    throw InvalidArgumentError("line detection: the clip rectangle leaves " + std::to_string(roi.width) + "x" +
+                               std::to_string(roi.height) + " pixels of the " + std::to_string(w) + "x" +
+                               std::to_string(h) + " frames");
+  }
+  const int scanlines = std::clamp(options.scanlines, 2, roi.width);
+  const double centre_x = roi.x + 0.5 * (roi.width - 1);
   TimedSignal s;
   std::vector<std::pair<double, double>> samples;
-  std::vector<double> peaks;
+  std::vector<Eigen::Vector2d> peaks;
+  std::vector<double> profile(static_cast<std::size_t>(roi.height));
   for (const auto& frame : sequence.frames) {
+    // PLUS marks dropped frames ImageStatus INVALID; no status means valid.
+    if (!frame.image_status.empty() && frame.image_status != "OK") continue;
     if (frame.pixels.size() != sequence.frameBytes()) {
       throw InvalidArgumentError("line detection: a frame has no pixels (read the sequence with its pixels)");
     }
-    const cv::Mat img(h, w, CV_8U, const_cast<std::uint8_t*>(frame.pixels.data()));
+    const auto mf = toMfPixels(sequence, frame);
+    const cv::Mat img(h, w, CV_8U, const_cast<std::uint8_t*>(mf.data()));
     cv::Mat smooth;
-    // Vertical smoothing only: the line is horizontal, speckle is not.
-    cv::GaussianBlur(img, smooth, cv::Size(1, 7), 0.0, 2.0);
+    // Vertical smoothing only: the line runs across, speckle does not.
+    cv::GaussianBlur(img(roi), smooth, cv::Size(1, 7), 0.0, 2.0);
     peaks.clear();
-    const int step = std::max(1, w / 64);
-    for (int x = 0; x < w; x += step) {
-      int best = -1, best_y = 0;
-      for (int y = 0; y < h; ++y) {
-        const int v = smooth.at<std::uint8_t>(y, x);
-        if (v > best) {
-          best = v;
-          best_y = y;
-        }
-      }
-      if (best < 32) continue;  // no echo in this column
-      // Sub-pixel peak by a parabola through the neighbours.
-      double y = best_y;
-      if (best_y > 0 && best_y + 1 < h) {
-        const double a = smooth.at<std::uint8_t>(best_y - 1, x), b = best, c = smooth.at<std::uint8_t>(best_y + 1, x);
-        const double den = a - 2.0 * b + c;
-        if (den < 0.0) y += 0.5 * (a - c) / den;
-      }
-      peaks.push_back(y);
+    for (int k = 0; k < scanlines; ++k) {
+      const int x = static_cast<int>(std::lround(k * (roi.width - 1) / static_cast<double>(scanlines - 1)));
+      for (int y = 0; y < roi.height; ++y) profile[static_cast<std::size_t>(y)] = smooth.at<std::uint8_t>(y, x);
+      double centre = 0.0;
+      if (largestEchoCentre(profile, centre)) peaks.emplace_back(roi.x + x, roi.y + centre);
     }
-    if (peaks.size() < 4) continue;
-    std::nth_element(peaks.begin(), peaks.begin() + static_cast<std::ptrdiff_t>(peaks.size() / 2), peaks.end());
-    samples.emplace_back(frame.timestamp, peaks[peaks.size() / 2]);
+    double a = 0.0, b = 0.0;
+    if (!robustLine(peaks, options.max_line_residual_px, static_cast<std::size_t>(options.min_valid_scanlines), a,
+                    b)) {
+      continue;
+    }
+    samples.emplace_back(frame.timestamp, a + b * centre_x);
+  }
+  const auto valid = static_cast<std::size_t>(std::count_if(sequence.frames.begin(), sequence.frames.end(), [](const auto& f) {
+    return f.image_status.empty() || f.image_status == "OK";
+  }));
+  if (static_cast<double>(samples.size()) < options.min_found_fraction * static_cast<double>(valid)) {
+    throw ComputationError("line detection: the target line was found in " + std::to_string(samples.size()) + " of " +
+                           std::to_string(valid) +
+                           " valid frames; record the probe moving over a flat target (e.g. the water-tank floor) "
+                           "that stays in view, or clip the frames to it");
   }
   std::sort(samples.begin(), samples.end());
   for (const auto& [t, v] : samples) {
@@ -168,13 +254,19 @@ TemporalCalibrationResult calibrateTemporal(const TimedSignal& tracker, const Ti
                            " mm RMS, need " + std::to_string(options.min_tracker_motion_mm) + "; image line " +
                            std::to_string(r.video_motion_rms) + " px RMS, need " +
                            std::to_string(options.min_video_motion_px) +
-                           "); move the probe up and down over the flat target for several cycles");
+                           "); move the probe up and down over the flat target for several cycles (when the "
+                           "image line stands still, clip the frames to the target: the transducer's ringing or "
+                           "another echo may be what was followed)");
   }
   const int steps = static_cast<int>(std::ceil(options.max_lag_s / options.lag_step_s));
   for (int i = -steps; i <= steps; ++i) {
     const double lag = i * options.lag_step_s;
     r.lags_s.push_back(lag);
-    r.correlations.push_back(ncc(tracker, video, lag, options.min_samples));
+    // A lag that leaves most of the video without tracker data is not
+    // trusted: short overlaps correlate by chance.
+    const auto min_overlap = std::max(options.min_samples, static_cast<std::size_t>(std::ceil(
+                                                               options.min_overlap_fraction * r.video_samples)));
+    r.correlations.push_back(ncc(tracker, video, lag, min_overlap));
   }
   // The sign of the coupling between the two signals is unknown (probe axis
   // direction, image orientation): the peak of |NCC| is taken, and among
