@@ -32,7 +32,8 @@ bool haveData(benchmark::State& state) {
   return false;
 }
 
-// Everything from the files on disk to ImageToProbe and the validation figures.
+// Everything from the files on disk to ImageToProbe and the validation
+// figures (`calibrate-us --no-lag-check`).
 void BM_CalibrationFromFiles(benchmark::State& state) {
   if (!haveData(state)) return;
   for (auto _ : state) {
@@ -46,9 +47,27 @@ void BM_CalibrationFromFiles(benchmark::State& state) {
 }
 BENCHMARK(BM_CalibrationFromFiles)->Unit(benchmark::kMillisecond)->UseRealTime();
 
-// What `mrsns-cli calibrate-us` does by default: the same from the files,
-// plus the tracker lag estimated from the calibration sweep (one solve per
-// 20 ms step over +-1 s) and applied to both sequences.
+// What `mrsns-cli calibrate-us` does by default: the same, plus the lag
+// check (the tracker lag searched on the calibration sweep, one solve per
+// 20 ms step over +-1 s, and reported, not applied).
+void BM_CalibrationWithLagCheckFromFiles(benchmark::State& state) {
+  if (!haveData(state)) return;
+  mrsns::ultrasound::TrackerLagOptions lag;
+  lag.check = true;
+  for (auto _ : state) {
+    const auto config = mrsns::io::readDeviceSet(kDir / "PlusDeviceSet_fCal_Sim_SpatialCalibration_1.2.xml");
+    const auto calibration = mrsns::io::readSequence(kDir / "fCal_Test_Calibration_3NWires.igs.mha");
+    const auto validation = mrsns::io::readSequence(kDir / "fCal_Test_Validation_3NWires.igs.mha");
+    const auto run = mrsns::ultrasound::calibrateProbe(config, calibration, validation, {}, lag);
+    benchmark::DoNotOptimize(run.result.probe_T_image);
+    state.counters["validation_mm"] = run.validation_errors.reprojection_3d_mean_mm;
+    if (run.tracker_lag_check) state.counters["checked_lag_ms"] = run.tracker_lag_check->estimate.lag_s * 1e3;
+  }
+}
+BENCHMARK(BM_CalibrationWithLagCheckFromFiles)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+// `calibrate-us --tracker-lag-ms auto --objective middle-wire`: the lag
+// estimated from the calibration sweep and applied to both sequences.
 void BM_CalibrationWithLagEstimateFromFiles(benchmark::State& state) {
   if (!haveData(state)) return;
   mrsns::ultrasound::TrackerLagOptions lag;
@@ -58,7 +77,9 @@ void BM_CalibrationWithLagEstimateFromFiles(benchmark::State& state) {
     const auto config = mrsns::io::readDeviceSet(kDir / "PlusDeviceSet_fCal_Sim_SpatialCalibration_1.2.xml");
     const auto calibration = mrsns::io::readSequence(kDir / "fCal_Test_Calibration_3NWires.igs.mha");
     const auto validation = mrsns::io::readSequence(kDir / "fCal_Test_Validation_3NWires.igs.mha");
-    const auto run = mrsns::ultrasound::calibrateProbe(config, calibration, validation, {}, lag);
+    mrsns::ultrasound::SpatialCalibrationOptions spatial;
+    spatial.objective = mrsns::ultrasound::CalibrationObjective::MiddleWirePoints;
+    const auto run = mrsns::ultrasound::calibrateProbe(config, calibration, validation, spatial, lag);
     benchmark::DoNotOptimize(run.result.probe_T_image);
     state.counters["validation_mm"] = run.validation_errors.reprojection_3d_mean_mm;
     state.counters["lag_ms"] = run.tracker_lag.lag_s * 1e3;

@@ -83,21 +83,38 @@ void printRun(const char* label, const SpatialCalibrationResult& r, const Calibr
       worstCornerDistance(r.probe_T_image, data.reference.image_to_probe, data.calibration));
 }
 
-// Our error definition applied to PLUS's ImageToProbe on our segmentation
-// reproduces PLUS's published validation figure: the two segmentations
-// differ by ~0.6 px per dot, which moves the figure by well under 0.1 mm.
+// Our segmentation reproduces PLUS's dots (test_segmentation_real.cpp), so
+// our error definition applied to PLUS's ImageToProbe reproduces PLUS's
+// published validation figure; what remains is PLUS's 6-digit rounding of
+// its matrix and points.
 TEST(SpatialCalibrationReal, PlusMatrixOnOurSegmentationReproducesPlusFigure) {
   MRSNS_REQUIRE_PLUS_DATA(data);
   const auto& s = segmented(data);
   EXPECT_EQ(s.calibration.segmented_frames, s.calibration.total_frames);
-  EXPECT_GE(s.validation.segmented_frames, s.validation.total_frames - 2);
+  EXPECT_EQ(s.validation.segmented_frames, s.validation.total_frames);
   const auto plus_on_ours = evaluateSpatialCalibration(data.reference.image_to_probe, s.validation.frames, s.patterns,
                                                        s.reference_T_phantom, s.names);
   std::printf("PLUS's ImageToProbe on our validation segmentation: %.3f +/- %.3f mm (published %.3f +/- %.3f)\n",
               plus_on_ours.reprojection_3d_mean_mm, plus_on_ours.reprojection_3d_std_mm,
               data.reference.validation_mean_mm, data.reference.validation_std_mm);
-  EXPECT_NEAR(plus_on_ours.reprojection_3d_mean_mm, data.reference.validation_mean_mm, 0.1);
-  EXPECT_NEAR(plus_on_ours.reprojection_3d_std_mm, data.reference.validation_std_mm, 0.1);
+  EXPECT_NEAR(plus_on_ours.reprojection_3d_mean_mm, data.reference.validation_mean_mm, 0.01);
+  EXPECT_NEAR(plus_on_ours.reprojection_3d_std_mm, data.reference.validation_std_mm, 0.01);
+}
+
+// The default (both residual sets, no lag: PLUS's fCal workflow) meets the
+// issue's two goals in one result: validation 3D reprojection <= 1.20 mm
+// (PLUS 1.247) and the image corners within 1 mm of PLUS's ImageToProbe.
+TEST(SpatialCalibrationReal, DefaultCalibrationBeatsPlusAndAgreesWithItsMatrix) {
+  MRSNS_REQUIRE_PLUS_DATA(data);
+  const auto run = calibrateProbe(data.config, data.calibration, data.validation);
+  printRun("default (both, no lag)", run.result, run.validation_errors, data);
+  EXPECT_EQ(run.tracker_lag.lag_s, 0.0);
+  EXPECT_LE(run.validation_errors.reprojection_3d_mean_mm, 1.20);
+  EXPECT_LT(run.validation_errors.reprojection_3d_mean_mm, data.reference.validation_mean_mm);
+  EXPECT_LE(run.result.calibration.reprojection_3d_mean_mm, data.reference.calibration_mean_mm);
+  EXPECT_LT(worstCornerDistance(run.result.probe_T_image, data.reference.image_to_probe, data.calibration), 1.0);
+  EXPECT_GE(run.result.frames_used, 175u);
+  EXPECT_EQ(run.validation_frames_paired, run.validation.frames.size());
 }
 
 // Without a lag, the distance of every dot to its wire beats PLUS's validation error.
@@ -123,7 +140,10 @@ TEST(SpatialCalibrationReal, DistanceToWiresBeatsPlusOnValidation) {
   EXPECT_LT(worstCornerDistance(r.probe_T_image, data.reference.image_to_probe, data.calibration), 5.0);
 }
 
-// PLUS's own criterion (middle-wire points) lands on PLUS's ImageToProbe.
+// PLUS's own criterion (middle-wire points) on our segmentation lands on
+// PLUS's ImageToProbe and its figures: PLUS fits a general affine map by
+// linear least squares, we fit the 8 physical parameters, a few hundredths
+// of a millimetre apart at the far corners.
 TEST(SpatialCalibrationReal, MiddleWireObjectiveMatchesPlusMatrix) {
   MRSNS_REQUIRE_PLUS_DATA(data);
   const auto& s = segmented(data);
@@ -133,9 +153,9 @@ TEST(SpatialCalibrationReal, MiddleWireObjectiveMatchesPlusMatrix) {
   const auto validation =
       evaluateSpatialCalibration(r.probe_T_image, s.validation.frames, s.patterns, s.reference_T_phantom, s.names);
   printRun("middle-wire", r, validation, data);
-  EXPECT_LT(worstCornerDistance(r.probe_T_image, data.reference.image_to_probe, data.calibration), 1.0);
-  EXPECT_NEAR(r.calibration.reprojection_3d_mean_mm, data.reference.calibration_mean_mm, 0.1);
-  EXPECT_NEAR(validation.reprojection_3d_mean_mm, data.reference.validation_mean_mm, 0.15);
+  EXPECT_LT(worstCornerDistance(r.probe_T_image, data.reference.image_to_probe, data.calibration), 0.2);
+  EXPECT_NEAR(r.calibration.reprojection_3d_mean_mm, data.reference.calibration_mean_mm, 0.02);
+  EXPECT_NEAR(validation.reprojection_3d_mean_mm, data.reference.validation_mean_mm, 0.02);
 }
 
 // The recording carries a tracker lag that neither PLUS's result nor the
@@ -161,12 +181,49 @@ TEST(SpatialCalibrationReal, EstimatedTrackerLagHalvesTheValidationError) {
   EXPECT_LT(run.validation_errors.reprojection_3d_mean_mm, 0.5 * data.reference.validation_mean_mm + 0.1);
   EXPECT_LT(run.result.calibration.reprojection_3d_mean_mm, data.reference.calibration_mean_mm);
   EXPECT_GE(run.validation_frames_paired, 85u);
+  // The lag-corrected ImageToProbe is the better calibration even where the
+  // lag is not corrected: on the validation frames paired as recorded (as
+  // PLUS evaluates) it beats PLUS's figure by more than the 0.05 mm
+  // standard error too.
+  const auto& s = segmented(data);
+  const auto as_recorded = evaluateSpatialCalibration(run.result.probe_T_image, s.validation.frames, s.patterns,
+                                                      s.reference_T_phantom, s.names);
+  std::printf("  the lag-corrected ImageToProbe on the validation frames as recorded: %.3f +/- %.3f mm\n",
+              as_recorded.reprojection_3d_mean_mm, as_recorded.reprojection_3d_std_mm);
+  EXPECT_LT(as_recorded.reprojection_3d_mean_mm, data.reference.validation_mean_mm - 0.1);
 }
 
-// On PLUS's own segmented points (its results file), the default criterion
-// reproduces PLUS's ImageToProbe: the calibration algorithm is PLUS's, the
-// remaining differences come from the segmentation.
-TEST(SpatialCalibrationReal, DefaultCriterionOnPlusPointsReproducesPlusMatrix) {
+// Calibrating without a lag (the default) still searches one and says when
+// the sweep fits markedly better at another lag; at that lag it is quiet.
+TEST(SpatialCalibrationReal, LagCheckReportsTheRecordingsLagWithoutApplyingIt) {
+  MRSNS_REQUIRE_PLUS_DATA(data);
+  TrackerLagOptions lag;
+  lag.check = true;
+  const auto run = calibrateProbe(data.config, data.calibration, data.validation, {}, lag);
+  ASSERT_TRUE(run.tracker_lag_check.has_value());
+  const auto& check = *run.tracker_lag_check;
+  std::printf("lag check: %.1f ms, calibration error %.3f mm there, %.3f mm as applied; %s\n",
+              check.estimate.lag_s * 1e3, check.error_at_estimate_mm, check.error_as_applied_mm, check.advice.c_str());
+  EXPECT_EQ(run.tracker_lag.lag_s, 0.0);
+  ASSERT_TRUE(check.estimate.estimated) << check.estimate.note;
+  EXPECT_NEAR(check.estimate.lag_s, 0.49, 0.079);
+  EXPECT_TRUE(check.significant);
+  EXPECT_LT(check.error_at_estimate_mm, 0.5 * check.error_as_applied_mm);
+  EXPECT_NE(check.advice.find("tracker lag"), std::string::npos);
+
+  TrackerLagOptions at_estimate;
+  at_estimate.check = true;
+  at_estimate.lag_s = check.estimate.lag_s;
+  const auto again = calibrateProbe(data.config, data.calibration, data.validation, {}, at_estimate);
+  ASSERT_TRUE(again.tracker_lag_check.has_value());
+  EXPECT_FALSE(again.tracker_lag_check->significant) << again.tracker_lag_check->advice;
+  EXPECT_TRUE(again.tracker_lag_check->advice.empty());
+  EXPECT_LT(again.validation_errors.reprojection_3d_mean_mm, 0.75);
+}
+
+// On PLUS's own segmented points (its results file), PLUS's criterion
+// reproduces PLUS's ImageToProbe.
+TEST(SpatialCalibrationReal, MiddleWireOnPlusPointsReproducesPlusMatrix) {
   MRSNS_REQUIRE_PLUS_DATA(data);
   const auto& s = segmented(data);
   std::vector<CalibrationFrame> frames;
@@ -177,7 +234,9 @@ TEST(SpatialCalibrationReal, DefaultCriterionOnPlusPointsReproducesPlusMatrix) {
     frames.push_back(f);
   }
   ASSERT_GE(frames.size(), 170u);
-  const auto r = calibrateSpatial(frames, s.patterns, s.reference_T_phantom);
+  SpatialCalibrationOptions options;
+  options.objective = CalibrationObjective::MiddleWirePoints;
+  const auto r = calibrateSpatial(frames, s.patterns, s.reference_T_phantom, options);
   const double corners = worstCornerDistance(r.probe_T_image, data.reference.image_to_probe, data.calibration);
   std::printf("middle-wire on PLUS's %zu calibration frames: corners %.3f mm from PLUS's ImageToProbe\n", frames.size(),
               corners);
@@ -203,7 +262,8 @@ TEST(SpatialCalibrationReal, TheLagExplainsPlusMatrix) {
   const auto poses = extractFramePoses(data.calibration.frames, "ProbeToReference").poses;
   TrackerLagOptions lag_options;
   lag_options.estimate = true;
-  const SpatialCalibrationOptions options;  // middle-wire points
+  SpatialCalibrationOptions options;
+  options.objective = CalibrationObjective::MiddleWirePoints;
   const auto lag =
       estimateTrackerLag(s.calibration.frames, times, poses, s.patterns, s.reference_T_phantom, options, lag_options);
   const auto lagged = pairWithTrackerLag(s.calibration.frames, times, poses, lag.lag_s);

@@ -21,9 +21,10 @@ struct CalibrateUsOptions {
   std::string validation;
   std::string output_config;
   std::string reference_results;
-  std::string objective = "middle-wire";
-  std::string tracker_lag = "auto";  // ms, or "auto"
+  std::string objective = "both";
+  std::string tracker_lag = "0";  // ms, or "auto"
   double lag_range_ms = 1000.0;
+  bool no_lag_check = false;
 };
 
 Json matrixJson(const Eigen::Matrix4d& m) {
@@ -68,8 +69,9 @@ Report run(const CalibrateUsOptions& options) {
   const auto calibration = io::readSequence(options.calibration);
   const auto validation = io::readSequence(options.validation);
   ultrasound::SpatialCalibrationOptions cal_options;
-  cal_options.objective = options.objective == "middle-wire" ? ultrasound::CalibrationObjective::MiddleWirePoints
-                                                             : ultrasound::CalibrationObjective::DistanceToWires;
+  cal_options.objective = options.objective == "middle-wire"         ? ultrasound::CalibrationObjective::MiddleWirePoints
+                          : options.objective == "distance-to-wires" ? ultrasound::CalibrationObjective::DistanceToWires
+                                                                     : ultrasound::CalibrationObjective::Both;
   ultrasound::TrackerLagOptions lag;
   if (options.tracker_lag == "auto") {
     lag.estimate = true;
@@ -86,6 +88,8 @@ Report run(const CalibrateUsOptions& options) {
       throw InvalidArgumentError("--tracker-lag-ms: '" + options.tracker_lag +
                                  "' is neither a number of milliseconds nor 'auto'");
     }
+    lag.check = !options.no_lag_check;
+    lag.search_half_range_s = options.lag_range_ms * 1e-3;
   }
   const auto run = ultrasound::calibrateProbe(config, calibration, validation, cal_options, lag);
   const auto& r = run.result;
@@ -118,6 +122,19 @@ Report run(const CalibrateUsOptions& options) {
     j["tracker_lag_curvature_mm_per_s2"] = run.tracker_lag.curvature_mm_per_s2;
   }
   if (!run.tracker_lag.note.empty()) j["tracker_lag_note"] = run.tracker_lag.note;
+  if (run.tracker_lag_check) {
+    const auto& c = *run.tracker_lag_check;
+    Json check{{"estimated", c.estimate.estimated}, {"significant", c.significant}};
+    if (c.estimate.estimated) {
+      check["lag_ms"] = c.estimate.lag_s * 1e3;
+      check["curvature_mm_per_s2"] = c.estimate.curvature_mm_per_s2;
+      check["calibration_error_at_lag_mm"] = c.error_at_estimate_mm;
+      check["calibration_error_as_applied_mm"] = c.error_as_applied_mm;
+    }
+    if (!c.estimate.note.empty()) check["note"] = c.estimate.note;
+    if (c.significant) check["advice"] = c.advice + " (mrsns-cli calibrate-temporal, or --tracker-lag-ms auto)";
+    j["tracker_lag_check"] = check;
+  }
   j["seconds"] = run.seconds;
 
   std::ostringstream text;
@@ -132,6 +149,9 @@ Report run(const CalibrateUsOptions& options) {
        << "  validation: " << run.validation_frames_paired << "/" << run.validation.total_frames
        << " frames, 3D reprojection " << run.validation_errors.reprojection_3d_mean_mm << " +/- "
        << run.validation_errors.reprojection_3d_std_mm << " mm\n";
+  if (run.tracker_lag_check && run.tracker_lag_check->significant) {
+    text << "  warning: " << run.tracker_lag_check->advice << " (mrsns-cli calibrate-temporal, or --tracker-lag-ms auto)\n";
+  }
   if (!options.reference_results.empty()) {
     const Eigen::Matrix4d ref = ultrasound::readPlusImageToProbe(options.reference_results);
     const double w = static_cast<double>(calibration.geometry.size[0] - 1);
@@ -187,17 +207,22 @@ void registerCalibrateUsVerb(CLI::App& app, GlobalOptions& options, VerbList& ve
   sub->add_option("--reference-results", opts->reference_results,
                   "a PLUS ProbeCalibration results file: distances of the mapped image corners to its ImageToProbe");
   sub->add_option("--tracker-lag-ms", opts->tracker_lag,
-                  "tracker lag applied to both sequences (PLUS TrackerLagSec convention, ms), or 'auto' to estimate it "
-                  "from the calibration sequence (falls back to 0 when the sweep does not pin it down); 0 calibrates "
-                  "as PLUS's fCal does, without a lag")
-      ->default_val("auto");
-  sub->add_option("--tracker-lag-range-ms", opts->lag_range_ms, "half width of the lag search with 'auto' (ms)")
+                  "tracker lag applied to both sequences (PLUS TrackerLagSec convention, ms; 0, the default, calibrates "
+                  "as PLUS's fCal does, with the streams as recorded), or 'auto' to estimate it from the calibration "
+                  "sequence and apply it (falls back to 0 when the sweep does not pin it down)")
+      ->default_val("0");
+  sub->add_option("--tracker-lag-range-ms", opts->lag_range_ms,
+                  "half width of the lag search of 'auto' and of the lag check (ms)")
       ->default_val(1000.0)
       ->check(CLI::PositiveNumber);
   sub->add_option("--objective", opts->objective,
-                  "least-squares criterion: PLUS's middle-wire points, or the distance of every dot to its wire")
-      ->check(CLI::IsMember({"middle-wire", "distance-to-wires"}))
+                  "least-squares criterion: both residual sets together (default), PLUS's middle-wire points alone, or the "
+                  "distance of every dot to its wire alone")
+      ->check(CLI::IsMember({"middle-wire", "distance-to-wires", "both"}))
       ->capture_default_str();
+  sub->add_flag("--no-lag-check", opts->no_lag_check,
+                "with a given lag, skip the search that reports (tracker_lag_check) whether the sweep fits markedly "
+                "better at another lag");
   addJsonFlag(*sub, options);
   verbs.emplace_back(sub, [opts] { return run(*opts); });
 }

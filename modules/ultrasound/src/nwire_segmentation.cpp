@@ -18,15 +18,17 @@
 namespace mrsns::ultrasound {
 namespace {
 
-cv::Mat barKernel(int length, int direction_deg) {
-  const int n = std::max(length, 1);
+// A bar reaching `half` pixels either side of its centre, as PLUS's
+// FidSegmentation erodes and dilates (MorphologicalOpeningBarSizeMm is the
+// half length): 2 * half + 1 pixels, the diagonal ones spanning as many
+// rows and columns. A shorter bar eats into the laterally smeared dots deep
+// in the image and moves their centroids by 1-2 px.
+cv::Mat barKernel(int half, int direction_deg) {
+  const int n = 2 * std::max(half, 1) + 1;
   if (direction_deg == 0) return cv::Mat::ones(1, n, CV_8U);
   if (direction_deg == 90) return cv::Mat::ones(n, 1, CV_8U);
-  // Diagonal bars cover the same extent along their direction as PLUS's
-  // (length / sqrt 2 pixels per axis).
-  const int m = std::max(1, static_cast<int>(std::lround(n / std::numbers::sqrt2)));
-  cv::Mat k = cv::Mat::zeros(m, m, CV_8U);
-  for (int i = 0; i < m; ++i) k.at<std::uint8_t>(i, direction_deg == 45 ? m - 1 - i : i) = 1;
+  cv::Mat k = cv::Mat::zeros(n, n, CV_8U);
+  for (int i = 0; i < n; ++i) k.at<std::uint8_t>(i, direction_deg == 45 ? n - 1 - i : i) = 1;
   return k;
 }
 
@@ -89,10 +91,9 @@ NWireSegmentation segmentNWires(const GrayImageView& image, const io::PhantomDef
   const double spacing = options.approximate_spacing_mm;
   NWireSegmentation result;
 
-  // Region of interest, kept away from the border by the bar length so the
-  // openings see only real pixels.
   const int bar = std::max(1, static_cast<int>(std::lround(options.opening_bar_size_mm / spacing)));
-  cv::Rect roi(0, 0, image.width, image.height);
+  const cv::Rect image_rect(0, 0, image.width, image.height);
+  cv::Rect roi = image_rect;
   if (options.clip_width > 0 && options.clip_height > 0) {
     roi &= cv::Rect(options.clip_x, options.clip_y, options.clip_width, options.clip_height);
   }
@@ -101,8 +102,12 @@ NWireSegmentation segmentNWires(const GrayImageView& image, const io::PhantomDef
     result.reason = "the clip rectangle leaves no image";
     return result;
   }
+  // The openings also see the real pixels up to a bar length around the
+  // region of interest (as PLUS's do), so a dot near its edge is not cut by
+  // a replicated border.
+  const cv::Rect padded = cv::Rect(roi.x - bar, roi.y - bar, roi.width + 2 * bar, roi.height + 2 * bar) & image_rect;
   const cv::Mat full(image.height, image.width, CV_8U, const_cast<std::uint8_t*>(image.pixels.data()));
-  cv::Mat working = full(roi).clone();
+  cv::Mat working = full(padded).clone();
 
   // Bars longer than a wire dot are bright lines (reverberation, the
   // phantom's walls): their opening is subtracted so only compact blobs stay.
@@ -112,10 +117,17 @@ NWireSegmentation segmentNWires(const GrayImageView& image, const io::PhantomDef
                      cv::BORDER_REPLICATE);
     cv::subtract(working, opened, working);
   }
-  // Speckle smaller than a wire cross-section goes with a disc opening.
+  // Speckle smaller than a wire cross-section goes with a disc opening (the
+  // pixels within the radius, PLUS's disc).
   const int radius = std::max(1, static_cast<int>(std::lround(options.opening_circle_radius_mm / spacing)));
-  cv::morphologyEx(working, working, cv::MORPH_OPEN,
-                   cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(2 * radius + 1, 2 * radius + 1)));
+  cv::Mat disc = cv::Mat::zeros(2 * radius + 1, 2 * radius + 1, CV_8U);
+  for (int dy = -radius; dy <= radius; ++dy) {
+    for (int dx = -radius; dx <= radius; ++dx) {
+      if (dx * dx + dy * dy <= radius * radius) disc.at<std::uint8_t>(dy + radius, dx + radius) = 1;
+    }
+  }
+  cv::morphologyEx(working, working, cv::MORPH_OPEN, disc, cv::Point(-1, -1), 1, cv::BORDER_REPLICATE);
+  working = working(roi - padded.tl()).clone();
 
   double min_value = 0.0, max_value = 0.0;
   cv::minMaxLoc(working, &min_value, &max_value);
@@ -129,21 +141,18 @@ NWireSegmentation segmentNWires(const GrayImageView& image, const io::PhantomDef
   cv::Mat labels, stats, centroids;
   const int count = cv::connectedComponentsWithStats(mask, labels, stats, centroids, 8, CV_32S);
 
-  // Centroids weighted by the original intensities over each component:
-  // the filtering flattens the dot's top (the disc opening), the raw
-  // profile keeps its peak (validation error 1.18 vs 1.21 mm on PLUS's
-  // recording). The candidate score stays the filtered intensity, as PLUS's.
-  std::vector<double> score(count, 0.0), sum(count, 0.0), sx(count, 0.0), sy(count, 0.0);
-  const cv::Mat original = full(roi);
+  // Centroids weighted by the filtered intensities over each component, as
+  // PLUS's: on PLUS's fCal recording the dots then land 0.08 px from PLUS's
+  // own (0.4 px with the original intensities as weights, whose speckle
+  // pulls the smeared deep dots sideways), and the score is the same sum.
+  std::vector<double> sum(count, 0.0), sx(count, 0.0), sy(count, 0.0);
   for (int y = 0; y < labels.rows; ++y) {
     const int* lrow = labels.ptr<int>(y);
     const std::uint8_t* wrow = working.ptr<std::uint8_t>(y);
-    const std::uint8_t* orow = original.ptr<std::uint8_t>(y);
     for (int x = 0; x < labels.cols; ++x) {
       const int l = lrow[x];
       if (l == 0) continue;
-      const double w = orow[x];
-      score[l] += wrow[x];
+      const double w = wrow[x];
       sum[l] += w;
       sx[l] += w * x;
       sy[l] += w * y;
@@ -153,7 +162,7 @@ NWireSegmentation segmentNWires(const GrayImageView& image, const io::PhantomDef
     if (sum[l] <= 0.0) continue;
     DotCandidate dot;
     dot.position_px = {sx[l] / sum[l] + roi.x, sy[l] / sum[l] + roi.y};
-    dot.intensity = score[l] / 255.0;
+    dot.intensity = sum[l] / 255.0;
     dot.area_px = stats.at<int>(l, cv::CC_STAT_AREA);
     result.candidates.push_back(dot);
   }

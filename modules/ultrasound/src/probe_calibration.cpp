@@ -1,6 +1,7 @@
 #include "mrsns/ultrasound/probe_calibration.h"
 
 #include <algorithm>
+#include <cmath>
 #include <atomic>
 #include <chrono>
 #include <exception>
@@ -8,6 +9,7 @@
 #include <thread>
 
 #include "mrsns/core/error.h"
+#include "mrsns/core/format.h"
 #include "mrsns/core/frame_poses.h"
 #include "mrsns/core/log.h"
 #include "mrsns/core/rigid.h"
@@ -146,6 +148,43 @@ std::vector<CalibrationFrame> shifted(const SequenceSegmentation& seg, const Seq
   return pairWithTrackerLag(seg.frames, timing.frame_times_s, timing.reference_T_probe, lag_s);
 }
 
+// The lag search run beside a calibration at another lag: the curve's
+// sample nearest the applied lag is the like-for-like error to compare with.
+TrackerLagCheck checkTrackerLag(const std::vector<CalibrationFrame>& frames, const SequenceTiming& timing,
+                                const std::vector<NWirePattern>& patterns, const Eigen::Isometry3d& reference_T_phantom,
+                                const SpatialCalibrationOptions& options, const TrackerLagOptions& lag) {
+  TrackerLagCheck check;
+  TrackerLagOptions search = lag;
+  search.estimate = true;
+  try {
+    check.estimate = estimateTrackerLag(frames, timing.frame_times_s, timing.reference_T_probe, patterns,
+                                        reference_T_phantom, options, search);
+  } catch (const ComputationError& e) {
+    check.estimate.note = e.what();
+    return check;
+  }
+  const auto& curve = check.estimate.curve;
+  const auto nearest = [&](double t) {
+    return std::min_element(curve.begin(), curve.end(), [t](const LagSample& a, const LagSample& b) {
+      return std::abs(a.lag_s - t) < std::abs(b.lag_s - t);
+    });
+  };
+  check.error_at_estimate_mm = nearest(check.estimate.lag_s)->reprojection_3d_mean_mm;
+  check.error_as_applied_mm = nearest(lag.lag_s)->reprojection_3d_mean_mm;
+  const double gain = 1.0 - check.error_at_estimate_mm / std::max(check.error_as_applied_mm, 1e-12);
+  check.significant =
+      std::abs(check.estimate.lag_s - lag.lag_s) > search.search_step_s && gain > TrackerLagCheck::kSignificantGain;
+  if (check.significant) {
+    check.advice = "the calibration sweep fits best with a tracker lag of " +
+                   formatGeneral(check.estimate.lag_s * 1e3, 3) + " ms (calibration error " +
+                   formatGeneral(check.error_at_estimate_mm, 3) + " mm against " +
+                   formatGeneral(check.error_as_applied_mm, 3) + " mm at the applied " +
+                   formatGeneral(lag.lag_s * 1e3, 3) +
+                   " ms): calibrate the tracker lag (temporal calibration) or apply the estimate";
+  }
+  return check;
+}
+
 }  // namespace
 
 ProbeCalibrationRun calibrateProbe(const io::DeviceSetConfiguration& config, const TrackedSequence& calibration,
@@ -170,6 +209,10 @@ ProbeCalibrationRun calibrateProbe(const io::DeviceSetConfiguration& config, con
     run.tracker_lag = TrackerLagEstimate{};
     run.tracker_lag.note = std::string("no tracker lag applied: ") + e.what();
     logger()->warn("{}", run.tracker_lag.note);
+  }
+  if (lag.check && !lag.estimate) {
+    run.tracker_lag_check =
+        checkTrackerLag(run.calibration.frames, calibration_timing, patterns, reference_T_phantom, options, lag);
   }
   const auto calibration_frames = shifted(run.calibration, calibration_timing, run.tracker_lag.lag_s);
   const auto validation_frames = shifted(run.validation, timingOf(validation), run.tracker_lag.lag_s);

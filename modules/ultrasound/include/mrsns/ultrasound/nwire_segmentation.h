@@ -52,7 +52,7 @@ enum class SegmentationStatus { Ok, NoCandidates, TooFewCandidates, NoPattern };
 std::string segmentationStatusName(SegmentationStatus status);
 
 struct DotCandidate {
-  Eigen::Vector2d position_px = Eigen::Vector2d::Zero();  ///< centroid weighted by the original intensities
+  Eigen::Vector2d position_px = Eigen::Vector2d::Zero();  ///< centroid weighted by the filtered intensities (as PLUS)
   double intensity = 0.0;                                 ///< sum of filtered intensities / 255 (the ranking score)
   int area_px = 0;
 };

@@ -4,6 +4,7 @@
 // on one sequence and its error figures on another.
 #include <Eigen/Geometry>
 #include <cstddef>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -52,6 +53,24 @@ Eigen::Isometry3d phantomToReference(const io::DeviceSetConfiguration& config);
 /// The wire names of a phantom, pattern by pattern.
 std::vector<std::string> wireNames(const io::PhantomDefinition& phantom);
 
+/// What the calibration sweep says about the tracker lag when another lag
+/// was applied (TrackerLagOptions::check): a freehand sweep recorded with
+/// an uncalibrated lag fits markedly better at that lag.
+struct TrackerLagCheck {
+  /// `estimate.estimated` is false when the sweep does not pin a lag down
+  /// (`estimate.note` says why).
+  TrackerLagEstimate estimate;
+  /// Calibration 3D reprojection error (PLUS's figure, mm) on the lag
+  /// curve's frames at the estimated lag and at the applied one.
+  double error_at_estimate_mm = 0.0;
+  double error_as_applied_mm = 0.0;
+  /// The estimate lies more than a search step from the applied lag and
+  /// lowers the calibration error by more than `kSignificantGain`.
+  bool significant = false;
+  std::string advice;  ///< what to do, when significant
+  static constexpr double kSignificantGain = 0.10;
+};
+
 struct ProbeCalibrationRun {
   SpatialCalibrationResult result;
   SequenceSegmentation calibration;
@@ -63,6 +82,8 @@ struct ProbeCalibrationRun {
   std::vector<CalibrationFrame> validation_paired;
   /// The lag applied to both sequences (estimated, given, or 0).
   TrackerLagEstimate tracker_lag;
+  /// With TrackerLagOptions::check: the lag the calibration sweep points to.
+  std::optional<TrackerLagCheck> tracker_lag_check;
   std::size_t calibration_frames_paired = 0, validation_frames_paired = 0;  ///< after the lag shift
   double seconds = 0.0;
 };

@@ -27,6 +27,10 @@ struct TrackerLagOptions {
   /// frames), apply no lag and say why in TrackerLagEstimate::note instead
   /// of throwing: for callers that estimate by default (`calibrate-us`).
   bool fall_back_to_zero = false;
+  /// With `estimate` off: search the lag all the same and report it beside
+  /// the calibration at `lag_s` (ProbeCalibrationRun::tracker_lag_check),
+  /// without applying it.
+  bool check = false;
 };
 
 struct LagSample {
