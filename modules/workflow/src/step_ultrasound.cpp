@@ -65,22 +65,35 @@ Json errorFigures(const ultrasound::CalibrationErrorReport& e) {
 StepResult runUsSpatialCalibration(Session& session, const Json& params, const StepContext& context) {
   const Params p("us-spatial-calibration", params, {"config", "calibration", "validation", "tracker_lag_ms"});
   const Inputs in = readInputs(p, context);
-  // tracker_lag_ms: a number (ms, 0 calibrates as PLUS's fCal does) or
-  // "auto" (the default): estimated from the calibration sweep, none when
-  // the sweep does not pin it down.
+  // tracker_lag_ms: a number (ms), or "auto" (estimated from the
+  // calibration sweep, none when the sweep does not pin it down). Without
+  // it, PLUS's workflow: the lag of this session's temporal calibration when
+  // it has run, else the streams as recorded; the sweep's own lag is then
+  // searched and reported (tracker_lag_check) but not applied.
   ultrasound::TrackerLagOptions lag;
-  const bool auto_lag = !params.contains("tracker_lag_ms") || params["tracker_lag_ms"].is_string();
+  std::string lag_source = "given";
+  const bool auto_lag = params.contains("tracker_lag_ms") && params["tracker_lag_ms"].is_string();
   if (auto_lag) {
     if (p.text("tracker_lag_ms", "auto") != "auto") {
       throw InvalidArgumentError("us-spatial-calibration: tracker_lag_ms must be a number of milliseconds or \"auto\"");
     }
     lag.estimate = true;
     lag.fall_back_to_zero = true;
-  } else {
+    lag_source = "estimated";
+  } else if (p.has("tracker_lag_ms")) {
     lag.lag_s = p.number("tracker_lag_ms", 0.0) * 1e-3;
+  } else {
+    const auto temporal = session.step("us-temporal-calibration");
+    const Json* recorded = nullptr;
+    if (temporal.is_object() && temporal.value("status", "") == "ok" && temporal.contains("figures") &&
+        temporal["figures"].contains("tracker_lag_ms") && temporal["figures"]["tracker_lag_ms"].is_number()) {
+      recorded = &temporal["figures"]["tracker_lag_ms"];
+    }
+    lag.lag_s = recorded ? recorded->get<double>() * 1e-3 : 0.0;
+    lag_source = recorded ? "us-temporal-calibration" : "none";
   }
-  context.report(0.3, auto_lag ? "segmenting the N-wires, estimating the tracker lag and calibrating"
-                               : "segmenting the N-wires and calibrating");
+  lag.check = !lag.estimate;
+  context.report(0.3, "segmenting the N-wires, searching the tracker lag and calibrating");
   const auto run = ultrasound::calibrateProbe(in.config, in.calibration, in.validation, {}, lag);
   checkCancel(context);
   const auto& r = run.result;
@@ -101,18 +114,37 @@ StepResult runUsSpatialCalibration(Session& session, const Json& params, const S
       {"seconds", run.seconds},
       {"tracker_lag_ms", run.tracker_lag.lag_s * 1e3},
       {"tracker_lag_estimated", run.tracker_lag.estimated},
+      {"tracker_lag_source", lag_source},
       // PLUS's own result on the same files (data/README.md).
       {"plus_reference",
        {{"calibration_reprojection_3d_mean_mm", 1.15532}, {"validation_reprojection_3d_mean_mm", 1.24684}}},
       {"transforms", {{"ImageToProbe", matrixJson(r.probe_T_image)}}}};
   if (!run.tracker_lag.note.empty()) result.figures["tracker_lag_note"] = run.tracker_lag.note;
+  if (run.tracker_lag_check) {
+    const auto& c = *run.tracker_lag_check;
+    Json check{{"estimated", c.estimate.estimated}, {"significant", c.significant}};
+    if (c.estimate.estimated) {
+      check["lag_ms"] = c.estimate.lag_s * 1e3;
+      check["calibration_error_at_lag_mm"] = c.error_at_estimate_mm;
+      check["calibration_error_as_applied_mm"] = c.error_as_applied_mm;
+    }
+    if (!c.estimate.note.empty()) check["note"] = c.estimate.note;
+    if (c.significant) check["advice"] = c.advice + " (run the US temporal calibration step, then this one again)";
+    result.figures["tracker_lag_check"] = check;
+  }
   result.outputs = {output};
   std::ostringstream s;
   s.precision(3);
   s << "ImageToProbe from " << r.frames_used << " frames, tracker lag " << run.tracker_lag.lag_s * 1e3 << " ms"
-    << (run.tracker_lag.estimated ? " (estimated)" : "") << ": validation 3D reprojection "
-    << run.validation_errors.reprojection_3d_mean_mm << " +/- " << run.validation_errors.reprojection_3d_std_mm
-    << " mm (PLUS 1.25 +/- 0.49, without a lag)";
+    << (lag_source == "estimated"                 ? " (estimated)"
+        : lag_source == "us-temporal-calibration" ? " (from the temporal calibration)"
+                                                  : "")
+    << ": validation 3D reprojection " << run.validation_errors.reprojection_3d_mean_mm << " +/- "
+    << run.validation_errors.reprojection_3d_std_mm << " mm (PLUS 1.25 +/- 0.49, without a lag)";
+  if (run.tracker_lag_check && run.tracker_lag_check->significant) {
+    s << "; the sweep fits better with a tracker lag of " << run.tracker_lag_check->estimate.lag_s * 1e3
+      << " ms: run the US temporal calibration, then this step again";
+  }
   result.summary = s.str();
   return result;
 }
@@ -130,11 +162,9 @@ StepResult runUsTemporalCalibration(Session& /*session*/, const Json& params, co
         "us-temporal-calibration: search_step_ms must be > 0 and at most search_half_range_ms (> 0)");
   }
   context.report(0.3, "searching the tracker lag (calibration error over lags)");
-  // Middle-wire points: the objective whose lag estimate the ultrasound
-  // module validated on this recording (tests/ultrasound/test_calibration_real.cpp).
-  ultrasound::SpatialCalibrationOptions spatial;
-  spatial.objective = ultrasound::CalibrationObjective::MiddleWirePoints;
-  const auto run = ultrasound::calibrateProbe(in.config, in.calibration, in.validation, spatial, lag);
+  // The spatial step's objective, so this lag is the one its lag check
+  // reports and the one it applies once this step has run.
+  const auto run = ultrasound::calibrateProbe(in.config, in.calibration, in.validation, {}, lag);
   checkCancel(context);
   Json curve = Json::array();
   for (const auto& c : run.tracker_lag.curve) {
