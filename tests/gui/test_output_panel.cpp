@@ -8,6 +8,7 @@
 #include "gui_test_app.h"
 #include "output_panel.h"
 #include "plot_widget.h"
+#include "step_list.h"
 
 using mrsns::gui::formatFigure;
 using mrsns::gui::OutputPanel;
@@ -151,4 +152,15 @@ TEST(OutputPanel, RobotStopBannerShowsTheReasonAndTheTimeUntilCleared) {
   panel.beginLiveNavigation();  // a new run starts without the old banner
   EXPECT_FALSE(banner->isVisible());
   EXPECT_TRUE(panel.robotStopBanner().isEmpty());
+}
+
+// The step row shows the figure that judges the step: for a calibration
+// with a held-out set, its validation error, not the fitted set's.
+TEST(OutputPanel, StepHeadlinePrefersTheValidationFigure) {
+  const nlohmann::json us = {{"calibration", {{"reprojection_3d_mean_mm", 1.148}}},
+                             {"validation", {{"reprojection_3d_mean_mm", 1.191}}},
+                             {"tracker_lag_ms", 0.0}};
+  EXPECT_EQ(mrsns::gui::stepHeadline(us), QStringLiteral("1.19 mm"));
+  EXPECT_EQ(mrsns::gui::stepHeadline({{"landmarks", {{"fre_rms_mm", 0.245}}}}), QStringLiteral("0.245 mm"));
+  EXPECT_EQ(mrsns::gui::stepHeadline({{"tracker_lag_ms", 512.0}}), QStringLiteral("512.0 ms"));
 }

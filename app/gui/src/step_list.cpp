@@ -91,7 +91,14 @@ const nlohmann::json* findLeaf(const nlohmann::json& figures, const char* needle
 QString stepHeadline(const nlohmann::json& figures) {
   if (!figures.is_object()) return {};
   std::string key;
+  // A validation figure, when the step has one, is the one that judges it
+  // (the US calibration: the held-out sequence, not the fitted one).
+  const auto validation = figures.find("validation");
+  const bool has_validation = validation != figures.end() && validation->is_object();
   for (const char* needle : {"fre", "reprojection_3d_mean", "lag", "rms", "error", "offset"}) {
+    if (has_validation) {
+      if (const auto* leaf = findLeaf(*validation, needle, 0, &key)) return formatFigure(key, *leaf);
+    }
     if (const auto* leaf = findLeaf(figures, needle, 1, &key)) {
       return formatFigure(key, *leaf);  // the value only: the row is narrow
     }
