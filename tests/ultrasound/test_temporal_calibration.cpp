@@ -26,11 +26,11 @@ struct Recording {
 
 // What else the images hold besides the moving target line.
 struct Scene {
-  double tilt = 0.0;                  ///< slope of the target line (px per px)
-  double ringing_intensity = 0.0;     ///< a thin, bright static band at the top (transducer ringing)
-  double static_band_intensity = 0.0; ///< a thick static echo (another wall), rows 12..30
-  double invalid_fraction = 0.0;      ///< frames marked ImageStatus INVALID, their pixels garbage
-  double dropout_fraction = 0.0;      ///< columns where the target echo is missing (shadowing)
+  double tilt = 0.0;                   ///< slope of the target line (px per px)
+  double ringing_intensity = 0.0;      ///< a thin, bright static band at the top (transducer ringing)
+  double static_band_intensity = 0.0;  ///< a thick static echo (another wall), rows 12..30
+  double invalid_fraction = 0.0;       ///< frames marked ImageStatus INVALID, their pixels garbage
+  double dropout_fraction = 0.0;       ///< columns where the target echo is missing (shadowing)
 };
 
 // The tracker reports at its time t the motion of time t - lag (it lags);

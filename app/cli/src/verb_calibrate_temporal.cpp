@@ -75,7 +75,8 @@ Report run(const CalibrateTemporalOptions& options) {
   std::ostringstream text;
   text << "Tracker lag: " << r.tracker_lag_s * 1000.0 << " ms (> 0 when the tracker data lags the video), NCC "
        << r.correlation << "\n  " << r.tracker_samples << " tracker samples (" << used << "), line found in "
-       << r.video_samples << " of " << video.frames.size() << " video frames; motion " << r.tracker_motion_rms << " mm / " << r.video_motion_rms << " px RMS\n";
+       << r.video_samples << " of " << video.frames.size() << " video frames; motion " << r.tracker_motion_rms
+       << " mm / " << r.video_motion_rms << " px RMS\n";
   report.text = text.str();
   return report;
 }

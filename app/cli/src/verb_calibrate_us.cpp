@@ -69,7 +69,7 @@ Report run(const CalibrateUsOptions& options) {
   const auto calibration = io::readSequence(options.calibration);
   const auto validation = io::readSequence(options.validation);
   ultrasound::SpatialCalibrationOptions cal_options;
-  cal_options.objective = options.objective == "middle-wire"         ? ultrasound::CalibrationObjective::MiddleWirePoints
+  cal_options.objective = options.objective == "middle-wire" ? ultrasound::CalibrationObjective::MiddleWirePoints
                           : options.objective == "distance-to-wires" ? ultrasound::CalibrationObjective::DistanceToWires
                                                                      : ultrasound::CalibrationObjective::Both;
   ultrasound::TrackerLagOptions lag;
@@ -150,7 +150,8 @@ Report run(const CalibrateUsOptions& options) {
        << " frames, 3D reprojection " << run.validation_errors.reprojection_3d_mean_mm << " +/- "
        << run.validation_errors.reprojection_3d_std_mm << " mm\n";
   if (run.tracker_lag_check && run.tracker_lag_check->significant) {
-    text << "  warning: " << run.tracker_lag_check->advice << " (mrsns-cli calibrate-temporal, or --tracker-lag-ms auto)\n";
+    text << "  warning: " << run.tracker_lag_check->advice
+         << " (mrsns-cli calibrate-temporal, or --tracker-lag-ms auto)\n";
   }
   if (!options.reference_results.empty()) {
     const Eigen::Matrix4d ref = ultrasound::readPlusImageToProbe(options.reference_results);
@@ -206,18 +207,20 @@ void registerCalibrateUsVerb(CLI::App& app, GlobalOptions& options, VerbList& ve
                   "write the configuration with the ImageToProbe in CoordinateDefinitions (PLUS-compatible)");
   sub->add_option("--reference-results", opts->reference_results,
                   "a PLUS ProbeCalibration results file: distances of the mapped image corners to its ImageToProbe");
-  sub->add_option("--tracker-lag-ms", opts->tracker_lag,
-                  "tracker lag applied to both sequences (PLUS TrackerLagSec convention, ms; 0, the default, calibrates "
-                  "as PLUS's fCal does, with the streams as recorded), or 'auto' to estimate it from the calibration "
-                  "sequence and apply it (falls back to 0 when the sweep does not pin it down)")
+  sub->add_option(
+         "--tracker-lag-ms", opts->tracker_lag,
+         "tracker lag applied to both sequences (PLUS TrackerLagSec convention, ms; 0, the default, calibrates "
+         "as PLUS's fCal does, with the streams as recorded), or 'auto' to estimate it from the calibration "
+         "sequence and apply it (falls back to 0 when the sweep does not pin it down)")
       ->default_val("0");
   sub->add_option("--tracker-lag-range-ms", opts->lag_range_ms,
                   "half width of the lag search of 'auto' and of the lag check (ms)")
       ->default_val(1000.0)
       ->check(CLI::PositiveNumber);
-  sub->add_option("--objective", opts->objective,
-                  "least-squares criterion: both residual sets together (default), PLUS's middle-wire points alone, or the "
-                  "distance of every dot to its wire alone")
+  sub->add_option(
+         "--objective", opts->objective,
+         "least-squares criterion: both residual sets together (default), PLUS's middle-wire points alone, or the "
+         "distance of every dot to its wire alone")
       ->check(CLI::IsMember({"middle-wire", "distance-to-wires", "both"}))
       ->capture_default_str();
   sub->add_flag("--no-lag-check", opts->no_lag_check,

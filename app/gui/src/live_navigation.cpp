@@ -342,6 +342,9 @@ nlohmann::json LiveNavigation::stop() {
                             {"robot_stopped", st.robot_stopped},
                             {"stop_reason", st.stop_reason},
                             {"recorder_error", st.recorder_error},
+                            {"video_frames_recorded", st.video_frames_recorded},
+                            {"video_frames_dropped", st.video_frames_dropped},
+                            {"video_error", st.video_error},
                             {"events", events},
                             {"loop_latency_ms", latency_ms_}};
   if (st.robot != "none") {

@@ -141,12 +141,21 @@ void MainWindow::stopNavigation() {
   summary << "live navigation " << figures.value("duration_s", 0.0) << " s: " << figures.value("batches", 0)
           << " tracking batches, " << figures.value("frames_recorded", 0) << " recorded";
   if (figures.value("robot_stopped", false)) summary << "; robot stopped (" << figures.value("stop_reason", "") << ")";
-  const std::string raw = live_recording_.substr(0, live_recording_.size() - 4) + ".raw";
+  if (figures.value("video_frames_recorded", 0) > 0) {
+    summary << "; " << figures.value("video_frames_recorded", 0) << " ultrasound frames recorded";
+  }
+  const std::string stem = live_recording_.substr(0, live_recording_.size() - 4);
+  nlohmann::json outputs = {live_recording_, stem + ".raw"};
+  // The loop records the source's ultrasound frames beside the tracking (NavigationOptions::video_recording).
+  if (figures.value("video_frames_recorded", 0) > 0) {
+    outputs.push_back(stem + "_video.mhd");
+    outputs.push_back(stem + "_video.raw");
+  }
   try {
     session_->recordStep("navigation", {{"status", ok ? "ok" : "failed"},
                                         {"summary", summary.str()},
                                         {"figures", figures},
-                                        {"outputs", {live_recording_, raw}},
+                                        {"outputs", outputs},
                                         {"params", {{"live", true}, {"source", figures.value("source", "")}}}});
   } catch (const mrsns::Error& e) {
     presentError(tr("Cannot record the navigation in the session"), QString::fromStdString(e.what()));

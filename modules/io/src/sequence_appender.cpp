@@ -32,7 +32,7 @@ bool writeAll(int fd, const std::uint8_t* data, std::size_t size) {
 TrackedSequence SequenceAppender::trackerOnlyLayout() {
   TrackedSequence layout;
   layout.geometry.dimensions = 2;
-  layout.geometry.size = {1, 1, 1};
+  layout.geometry.size = {0, 0, 1};  // PLUS's tracker buffer: DimSize = 0 0 N, no pixels
   layout.pixel_format = FramePixelFormat{PixelType::UInt8, 1};
   return layout;
 }

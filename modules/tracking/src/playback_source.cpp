@@ -79,7 +79,7 @@ bool PlaybackTrackingSource::publishFrame(std::size_t index) noexcept {
     u.timestamp = timestamp;
     batch_.push_back(std::move(u));
   }
-  if (options_.load_images) {
+  if (options_.load_images && header.frameBytes() > 0) {  // a tracker buffer has no images to load
     try {
       TrackedImage image;
       image.name = options_.image_name;
@@ -92,6 +92,7 @@ bool PlaybackTrackingSource::publishFrame(std::size_t index) noexcept {
         std::lock_guard lock(reader_mutex_);
         reader_.readFramePixels(index, image.pixels);
       }
+      publishImage(image);
       std::lock_guard lock(image_mutex_);
       image_ = std::move(image);
     } catch (const std::exception& e) {

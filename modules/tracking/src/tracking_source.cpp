@@ -48,6 +48,19 @@ void TrackingSource::setUpdateCallback(UpdateCallback callback) {
   callback_ = std::move(callback);
 }
 
+void TrackingSource::setImageCallback(ImageCallback callback) {
+  image_callback_ = std::move(callback);
+}
+
+void TrackingSource::publishImage(const TrackedImage& image) noexcept {
+  if (!image_callback_) return;
+  try {
+    image_callback_(image);
+  } catch (const std::exception& e) {
+    logger()->error("tracking: image callback threw: {}", e.what());
+  }
+}
+
 void TrackingSource::setState(SourceState state, std::string message) noexcept {
   try {
     std::lock_guard lock(status_mutex_);

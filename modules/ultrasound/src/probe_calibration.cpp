@@ -1,9 +1,9 @@
 #include "mrsns/ultrasound/probe_calibration.h"
 
 #include <algorithm>
-#include <cmath>
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <exception>
 #include <mutex>
 #include <thread>
@@ -175,12 +175,11 @@ TrackerLagCheck checkTrackerLag(const std::vector<CalibrationFrame>& frames, con
   check.significant =
       std::abs(check.estimate.lag_s - lag.lag_s) > search.search_step_s && gain > TrackerLagCheck::kSignificantGain;
   if (check.significant) {
-    check.advice = "the calibration sweep fits best with a tracker lag of " +
-                   formatGeneral(check.estimate.lag_s * 1e3, 3) + " ms (calibration error " +
-                   formatGeneral(check.error_at_estimate_mm, 3) + " mm against " +
-                   formatGeneral(check.error_as_applied_mm, 3) + " mm at the applied " +
-                   formatGeneral(lag.lag_s * 1e3, 3) +
-                   " ms): calibrate the tracker lag (temporal calibration) or apply the estimate";
+    check.advice =
+        "the calibration sweep fits best with a tracker lag of " + formatGeneral(check.estimate.lag_s * 1e3, 3) +
+        " ms (calibration error " + formatGeneral(check.error_at_estimate_mm, 3) + " mm against " +
+        formatGeneral(check.error_as_applied_mm, 3) + " mm at the applied " + formatGeneral(lag.lag_s * 1e3, 3) +
+        " ms): calibrate the tracker lag (temporal calibration) or apply the estimate";
   }
   return check;
 }

@@ -211,15 +211,15 @@ TimedSignal videoLineSignal(const TrackedSequence& sequence, const LineSignalOpt
       if (largestEchoCentre(profile, centre)) peaks.emplace_back(roi.x + x, roi.y + centre);
     }
     double a = 0.0, b = 0.0;
-    if (!robustLine(peaks, options.max_line_residual_px, static_cast<std::size_t>(options.min_valid_scanlines), a,
-                    b)) {
+    if (!robustLine(peaks, options.max_line_residual_px, static_cast<std::size_t>(options.min_valid_scanlines), a, b)) {
       continue;
     }
     samples.emplace_back(frame.timestamp, a + b * centre_x);
   }
-  const auto valid = static_cast<std::size_t>(std::count_if(sequence.frames.begin(), sequence.frames.end(), [](const auto& f) {
-    return f.image_status.empty() || f.image_status == "OK";
-  }));
+  const auto valid =
+      static_cast<std::size_t>(std::count_if(sequence.frames.begin(), sequence.frames.end(), [](const auto& f) {
+        return f.image_status.empty() || f.image_status == "OK";
+      }));
   if (static_cast<double>(samples.size()) < options.min_found_fraction * static_cast<double>(valid)) {
     throw ComputationError("line detection: the target line was found in " + std::to_string(samples.size()) + " of " +
                            std::to_string(valid) +
@@ -264,8 +264,8 @@ TemporalCalibrationResult calibrateTemporal(const TimedSignal& tracker, const Ti
     r.lags_s.push_back(lag);
     // A lag that leaves most of the video without tracker data is not
     // trusted: short overlaps correlate by chance.
-    const auto min_overlap = std::max(options.min_samples, static_cast<std::size_t>(std::ceil(
-                                                               options.min_overlap_fraction * r.video_samples)));
+    const auto min_overlap = std::max(
+        options.min_samples, static_cast<std::size_t>(std::ceil(options.min_overlap_fraction * r.video_samples)));
     r.correlations.push_back(ncc(tracker, video, lag, min_overlap));
   }
   // The sign of the coupling between the two signals is unknown (probe axis

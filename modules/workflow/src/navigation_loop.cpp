@@ -9,6 +9,7 @@
 #include "mrsns/io/sequence_appender.h"
 #include "mrsns/workflow/navigation.h"
 #include "navigation_robot.h"
+#include "video_recorder.h"
 
 namespace mrsns::workflow {
 
@@ -59,6 +60,14 @@ NavigationLoop::NavigationLoop(NavigationOptions options, std::vector<tracking::
     rec.sync_interval_s = options_.sync_interval_s;
     recorder_ =
         std::make_unique<io::SequenceAppender>(options_.recording, io::SequenceAppender::trackerOnlyLayout(), rec);
+  }
+  std::filesystem::path video = options_.video_recording;
+  if (video.empty() && !options_.recording.empty()) {
+    video = options_.recording.parent_path() / (options_.recording.stem().string() + "_video.mhd");
+  }
+  if (!video.empty()) {
+    video_ = std::make_unique<detail::VideoRecorder>(video, options_.sync_interval_s);
+    source_->setImageCallback([v = video_.get()](const tracking::TrackedImage& image) { v->push(image); });
   }
   if (options_.stream_holograms && !models.empty()) streamHolograms(std::move(models), options_.hologram_port);
   for (const auto& name : options_.required_transforms) {
@@ -145,6 +154,7 @@ void NavigationLoop::stop() {
   // The robot first: a tracker that stops because the loop ends is not a tracker loss.
   if (robot_) robot_->stop();
   source_->stop();
+  if (video_) video_->stop();  // every frame the source delivered is on disk
   wake_.notify_all();
   if (thread_.joinable()) thread_.join();
   if (robot_) pollRobot();
@@ -466,6 +476,14 @@ NavigationStatus NavigationLoop::status() const {
   s.hologram_clients = clients;
   s.source = source_->status();
   if (robot_) robot_->fillStatus(s);
+  if (video_) {
+    const auto v = video_->stats();
+    s.video_frames_recorded = v.recorded;
+    s.video_frames_synced = v.synced;
+    s.video_frames_dropped = v.dropped;
+    s.video_error = v.error;
+    if (v.recorded > 0) s.video_recording = video_->path();
+  }
   return s;
 }
 

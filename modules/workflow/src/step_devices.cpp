@@ -251,12 +251,20 @@ StepResult runNavigation(Session& session, const Json& params, const StepContext
     recorded_frames = io::readSequenceHeader(options.recording).frames.size();
   }
 
+  if (!st.video_recording.empty()) {
+    // The ultrasound video, beside the tracking (a source that delivers images: PlusServer, playback).
+    const std::string video = std::filesystem::relative(st.video_recording, session.folder()).generic_string();
+    outputs.push_back(video);
+    outputs.push_back(video.substr(0, video.size() - 4) + ".raw");
+  }
   StepResult result;
   result.ok = st.batches > 0 && st.recorder_error.empty();
   result.outputs = outputs;
   result.figures = {{"batches", st.batches},
                     {"frames_recorded", st.frames_recorded},
                     {"frames_in_file", recorded_frames},
+                    {"video_frames_recorded", st.video_frames_recorded},
+                    {"video_frames_dropped", st.video_frames_dropped},
                     {"max_batch_gap_ms", st.max_batch_gap_s * 1e3},
                     {"mean_loop_latency_ms", st.mean_loop_latency_ms},
                     {"robot_stopped", robot_stopped},
@@ -278,6 +286,8 @@ StepResult runNavigation(Session& session, const Json& params, const StepContext
     s << " " << st.stop_latency_ms << " ms after the loss, at rest " << st.time_to_stop_s << " s later";
   }
   if (!deformation.empty()) s << "; posterior E^SD " << deformation["posterior_sd_mean_mm"].get<double>() << " mm";
+  if (st.video_frames_recorded > 0) s << "; " << st.video_frames_recorded << " ultrasound frames recorded";
+  if (!st.video_error.empty()) s << "; video: " << st.video_error;
   if (!st.recorder_error.empty()) s << "; recording failed: " << st.recorder_error;
   result.summary = s.str();
   return result;

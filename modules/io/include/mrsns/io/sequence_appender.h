@@ -8,8 +8,8 @@
 // up to the last sync: at most `sync_interval_s` of data is lost. Pixel bytes
 // beyond the frames the header lists are ignored by readers.
 //
-// Tracker-only streams (no image) are stored as 1x1 uint8 frames, as PLUS
-// does for transform-only recordings.
+// Tracker-only streams (no image) are stored as PLUS stores its tracker
+// buffers: DimSize = 0 0 N, no pixel data (the .raw stays empty).
 #include <chrono>
 #include <cstdint>
 #include <filesystem>
@@ -30,11 +30,11 @@ class SequenceAppender {
   /// Starts a new recording at `path` (.mhd; the pixels go to the .raw of the
   /// same name). `layout` gives the geometry, pixel format, orientation and
   /// global fields (its frames are ignored). Throws InvalidArgumentError for
-  /// another extension or an empty geometry, FileError when the files cannot
-  /// be created, and refuses to overwrite an existing recording.
+  /// another extension or an empty geometry (0x0 frames are a tracker buffer, not empty), FileError when the files
+  /// cannot be created, and refuses to overwrite an existing recording.
   SequenceAppender(const std::filesystem::path& path, const TrackedSequence& layout,
                    const SequenceAppenderOptions& options = {});
-  /// Layout for a stream of transforms only (1x1 uint8 frames).
+  /// Layout for a stream of transforms only (0x0 frames, as PLUS's tracker buffers).
   static TrackedSequence trackerOnlyLayout();
   /// Syncs and closes.
   ~SequenceAppender();

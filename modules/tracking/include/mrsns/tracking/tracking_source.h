@@ -69,6 +69,10 @@ struct TrackedImage {
 /// Called once per published batch (all the tools of one tracker frame), on
 /// the source's thread. Must not block for long and must not throw.
 using UpdateCallback = std::function<void(std::span<const ToolUpdate>)>;
+/// Called once per image the source receives (an ultrasound frame), on the
+/// source's thread, so a recorder sees every frame, not just the latest.
+/// Must not block for long and must not throw.
+using ImageCallback = std::function<void(const TrackedImage&)>;
 
 class TrackingSource {
  public:
@@ -92,6 +96,8 @@ class TrackingSource {
 
   /// Set before start().
   void setUpdateCallback(UpdateCallback callback);
+  /// Set before start(); sources without images never call it.
+  void setImageCallback(ImageCallback callback);
   [[nodiscard]] TransformRepository& repository() { return *repository_; }
   [[nodiscard]] std::shared_ptr<TransformRepository> sharedRepository() const { return repository_; }
 
@@ -100,11 +106,14 @@ class TrackingSource {
   /// is counted as rejected and its edge, if any, marked Invalid), then calls
   /// the callback. Never throws.
   void publish(std::span<const ToolUpdate> updates) noexcept;
+  /// Calls the image callback. Never throws.
+  void publishImage(const TrackedImage& image) noexcept;
   void setState(SourceState state, std::string message = {}) noexcept;
 
  private:
   std::shared_ptr<TransformRepository> repository_;
   UpdateCallback callback_;
+  ImageCallback image_callback_;
   mutable std::mutex status_mutex_;
   SourceStatus status_;
 };

@@ -28,8 +28,8 @@ TimedSignal trackerPositionSignal(const std::vector<FramePose>& poses);
 /// near the top.
 struct LineSignalOptions {
   int clip_x = 0, clip_y = 0, clip_width = 0, clip_height = 0;
-  int scanlines = 64;            ///< columns sampled across the clip rectangle
-  int min_valid_scanlines = 5;   ///< fewer: the frame has no line
+  int scanlines = 64;                 ///< columns sampled across the clip rectangle
+  int min_valid_scanlines = 5;        ///< fewer: the frame has no line
   double max_line_residual_px = 3.0;  ///< scanline peaks further from the fitted line are outliers
   /// The line must be found in at least this fraction of the valid frames
   /// (a recording of the flat target shows it throughout), else

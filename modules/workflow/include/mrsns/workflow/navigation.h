@@ -35,7 +35,8 @@ namespace mrsns::workflow {
 
 namespace detail {
 class NavigationRobot;
-}
+class VideoRecorder;
+}  // namespace detail
 
 /// Which tracker to use: "simulated" (the default: patient, probe, stylus
 /// and robot flange markers with tremor and noise), "plus" (a PlusServer or
@@ -135,6 +136,10 @@ struct NavigationOptions {
   NavigationRobotOptions robot;
   /// Tracking stream recording (.mhd + .raw, crash-safe); empty: none.
   std::filesystem::path recording;
+  /// The ultrasound video the source delivers (PlusServer IMAGE messages, a playback with images), recorded
+  /// crash-safe (.mhd + .raw, every frame with its ImageTo<Frame> matrix) on its own thread. Empty: beside
+  /// `recording` as <stem>_video.mhd (none without a recording). The file appears with the first frame.
+  std::filesystem::path video_recording;
   double sync_interval_s = 0.5;
   /// Transforms the supervisor needs Ok while the robot moves: losing one
   /// stops the robot.
@@ -183,6 +188,12 @@ struct NavigationStatus {
   bool robot_stopped = false;
   std::string stop_reason;
   std::string recorder_error;
+  /// The ultrasound video (NavigationOptions::video_recording): frames written, durable, not recorded.
+  std::filesystem::path video_recording;  ///< empty until a frame has been written
+  std::uint64_t video_frames_recorded = 0;
+  std::uint64_t video_frames_synced = 0;
+  std::uint64_t video_frames_dropped = 0;
+  std::string video_error;
   tracking::SourceStatus source;
   double max_batch_gap_s = 0.0;
   double mean_loop_latency_ms = 0.0;  ///< batch arrival -> processed (record, supervise, stream)
@@ -279,6 +290,7 @@ class NavigationLoop {
   std::shared_ptr<TransformRepository> repository_;
   std::unique_ptr<tracking::TrackingSource> source_;
   std::unique_ptr<io::SequenceAppender> recorder_;
+  std::unique_ptr<detail::VideoRecorder> video_;
   std::unique_ptr<igtlink::Server> server_;
   std::unique_ptr<tracking::HologramStreamer> streamer_;
   mutable std::mutex stream_mutex_;  // guards server_, streamer_ (the GUI may start or end the stream any time)
