@@ -1,6 +1,9 @@
 // IgtlTrackingSource against an in-process mrsns Server playing PlusServer.
 #include <gtest/gtest.h>
 
+#include <cstring>
+#include <mutex>
+
 #include "mrsns/core/error.h"
 #include "mrsns/igtlink/server.h"
 #include "mrsns/tracking/igtl_source.h"
@@ -149,6 +152,46 @@ TEST_F(PlusServerFixture, ImageIsKeptWithVoxelZeroOrigin) {
   const Eigen::Vector4d last = received.ijk_to_frame * Eigen::Vector4d(3, 2, 0, 1);
   EXPECT_NEAR(last.x(), 100.75, 1e-5);
   EXPECT_NEAR(last.y(), 50.5, 1e-5);
+}
+
+// 16-bit pixels sent big-endian (the OpenIGTLink default) arrive in host
+// order, and every image reaches the image callback, not just the latest.
+TEST_F(PlusServerFixture, BigEndianPixelsAreSwappedAndEveryImageIsCalledBack) {
+  IgtlTrackingSource source(std::make_shared<TransformRepository>(), options);
+  std::mutex mutex;
+  std::vector<double> seen;
+  source.setImageCallback([&](const TrackedImage& image) {
+    std::lock_guard lock(mutex);
+    seen.push_back(image.timestamp);
+  });
+  source.start();
+  ASSERT_TRUE(waitFor([&] { return server->stats().clients == 1; }));
+  igtlink::ImageContent image;
+  image.scalar_type = igtlink::ScalarType::kUint16;
+  image.endian = igtlink::PixelEndian::kBig;
+  image.resizeWhole({2, 2, 1});
+  const std::uint16_t values[4] = {1, 258, 4096, 65535};
+  for (int i = 0; i < 4; ++i) {
+    image.pixels[2 * i] = static_cast<std::uint8_t>(values[i] >> 8);
+    image.pixels[2 * i + 1] = static_cast<std::uint8_t>(values[i] & 0xff);
+  }
+  for (int k = 0; k < 5; ++k) {
+    server->broadcast(igtlink::makeMessage("Image_Reference", image, 30.0 + k), igtlink::HeaderVersion::kV1,
+                      igtlink::Channel::Reliable);
+  }
+  ASSERT_TRUE(waitFor([&] {
+    std::lock_guard lock(mutex);
+    return seen.size() == 5;
+  }));
+  const auto received = *source.latestImage();
+  ASSERT_EQ(received.pixels.size(), 8u);
+  for (int i = 0; i < 4; ++i) {
+    std::uint16_t v = 0;
+    std::memcpy(&v, received.pixels.data() + 2 * i, 2);
+    EXPECT_EQ(v, values[i]) << i;
+  }
+  std::lock_guard lock(mutex);
+  EXPECT_EQ(seen, (std::vector<double>{30.0, 31.0, 32.0, 33.0, 34.0}));
 }
 
 TEST_F(PlusServerFixture, ConnectionLossMarksToolsInvalidAndTheClientReconnects) {
