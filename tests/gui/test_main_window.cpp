@@ -198,6 +198,11 @@ TEST_F(MainWindowTest, SampleSessionRegistrationAndUsCalibrationThenSaveAndReope
   EXPECT_NE(output->readout("us_calibration"), QStringLiteral("—")) << "US calibration error not shown";
   EXPECT_TRUE(window->findChild<QLabel*>("status_us-spatial-calibration")->property("stepState").toString() == "done");
   EXPECT_TRUE(recorder_->messages.empty()) << messages();
+  // The residual plot now shows the calibration's per-frame errors (fitted and held-out frames).
+  const auto* residuals = output->residualPlot();
+  EXPECT_TRUE(residuals->title().contains("calibration")) << residuals->title().toStdString();
+  EXPECT_EQ(residuals->seriesCount(), 2);
+  EXPECT_GT(residuals->pointCount(), 200u);
   screenshot(*window, "main_window_after_registration_and_us_calibration.png");
 
   const QString fre = output->readout("fre");

@@ -345,20 +345,23 @@ void OutputPanel::plotsFromFigures(const std::string& step, const nlohmann::json
     }
     return indices(n);
   };
-  bool residuals_replaced = false;
+  // One step's series replace the plot once, sub-results included (the US
+  // calibration's fitted and held-out frames share it).
+  if (prefix.empty()) residuals_replaced_ = false;
   auto residualSeries = [&](const QString& series, const std::vector<double>& x, const std::vector<double>& y,
                             const QString& x_label, QColor color) {
-    if (!residuals_replaced) {
+    if (!residuals_replaced_) {
       // The plot shows the latest step's per-frame (or per-target) errors.
       residual_plot_->clear();
       residual_plot_->setTitle(tr("%1: errors").arg(name));
       residual_plot_->setAxisLabels(x_label, tr("mm"));
-      residuals_replaced = true;
+      residuals_replaced_ = true;
     }
     residual_plot_->setSeries(series, x, y, color);
   };
   const QColor palette[] = {kBlue, kOrange, kGreen, kViolet};
-  int colour = 0;
+  // Colours follow the series already in the plot, across sub-results.
+  auto nextColour = [&] { return palette[(residuals_replaced_ ? residual_plot_->seriesCount() : 0) % 4]; };
   for (auto it = figures.begin(); it != figures.end(); ++it) {
     const std::string& own_key = it.key();
     if (contains(own_key, "time_s")) continue;
@@ -389,7 +392,7 @@ void OutputPanel::plotsFromFigures(const std::string& step, const nlohmann::json
         }
         if (ys.empty()) continue;
         const QString x_label = x_field.empty() ? QString::fromStdString(key) : QString::fromStdString(x_field);
-        residualSeries(QString::fromStdString(f.key()), xs, ys, x_label, palette[colour++ % 4]);
+        residualSeries(QString::fromStdString(f.key()), xs, ys, x_label, nextColour());
       }
       continue;
     }
@@ -398,7 +401,7 @@ void OutputPanel::plotsFromFigures(const std::string& step, const nlohmann::json
       latencies_ms_ = y;
       latency_plot_->setHistogram(y, 20, kViolet);
     } else if (contains(key, "residual")) {
-      residualSeries(QString::fromStdString(key), indices(y.size()), y, tr("frame"), kBlue);
+      residualSeries(QString::fromStdString(key), indices(y.size()), y, tr("frame"), nextColour());
     } else if (contains(key, "tissue") || contains(key, "distance")) {
       distance_plot_->setSeries(name, xFor(own_key, y.size()), y, kGreen);
     } else if (contains(key, "deformation") || contains(key, "error_over_time") || contains(key, "model_error")) {

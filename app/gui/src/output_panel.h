@@ -61,6 +61,7 @@ class OutputPanel : public QWidget {
   /// `prefix` names the sub-result the figures come from ("deformation."):
   /// series are recognised by their full dotted name.
   void plotsFromFigures(const std::string& step, const nlohmann::json& figures, const std::string& prefix = {});
+  bool residuals_replaced_ = false;  // within one plotsFromFigures call tree
 
   std::map<QString, QLabel*> readouts_;
   QLabel* stop_banner_ = nullptr;

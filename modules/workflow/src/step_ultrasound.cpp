@@ -57,6 +57,8 @@ Json errorFigures(const ultrasound::CalibrationErrorReport& e) {
               {"reprojection_3d_std_mm", e.reprojection_3d_std_mm},
               {"reprojection_3d_all_mean_mm", e.reprojection_3d_all_mean_mm},
               {"wire_distance_rms_mm", e.wire_distance_rms_mm},
+              // Per frame (mean over the N patterns): the GUI's residual plot.
+              {"residuals_mm", e.reprojection_3d_per_frame_mm},
               {"frames", e.frames}};
 }
 
