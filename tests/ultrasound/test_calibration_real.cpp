@@ -219,6 +219,17 @@ TEST(SpatialCalibrationReal, LagCheckReportsTheRecordingsLagWithoutApplyingIt) {
   EXPECT_FALSE(again.tracker_lag_check->significant) << again.tracker_lag_check->advice;
   EXPECT_TRUE(again.tracker_lag_check->advice.empty());
   EXPECT_LT(again.validation_errors.reprojection_3d_mean_mm, 0.75);
+
+  // An applied lag off the search grid is not judged against it.
+  TrackerLagOptions outside;
+  outside.check = true;
+  outside.lag_s = 0.49;
+  outside.search_half_range_s = 0.3;
+  const auto unchecked = calibrateProbe(data.config, data.calibration, data.validation, {}, outside);
+  ASSERT_TRUE(unchecked.tracker_lag_check.has_value());
+  EXPECT_FALSE(unchecked.tracker_lag_check->estimate.estimated);
+  EXPECT_FALSE(unchecked.tracker_lag_check->significant);
+  EXPECT_NE(unchecked.tracker_lag_check->estimate.note.find("outside"), std::string::npos);
 }
 
 // On PLUS's own segmented points (its results file), PLUS's criterion

@@ -156,6 +156,13 @@ TrackerLagCheck checkTrackerLag(const std::vector<CalibrationFrame>& frames, con
   TrackerLagCheck check;
   TrackerLagOptions search = lag;
   search.estimate = true;
+  // The search grid lies around 0: the applied lag must be on it to compare like with like.
+  if (std::abs(lag.lag_s) > search.search_half_range_s - search.search_step_s) {
+    check.estimate.note = "the applied lag (" + formatGeneral(lag.lag_s * 1e3, 4) +
+                          " ms) lies outside the lag check's search range (+-" +
+                          formatGeneral(search.search_half_range_s * 1e3, 4) + " ms): widen the range to check it";
+    return check;
+  }
   try {
     check.estimate = estimateTrackerLag(frames, timing.frame_times_s, timing.reference_T_probe, patterns,
                                         reference_T_phantom, options, search);
