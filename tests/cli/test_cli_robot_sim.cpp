@@ -8,11 +8,14 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <fstream>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <sstream>
 #include <thread>
 
 #include "cli_runner.h"
+#include "loopback_ports.h"
 
 extern char** environ;
 
@@ -20,11 +23,6 @@ namespace {
 
 using mrsns::test::CliResult;
 using mrsns::test::runCli;
-
-// A port offset unlikely to collide with another test process (ports 40004.. 60003).
-int portOffset() {
-  return 10000 + static_cast<int>(::getpid() % 20000);
-}
 
 class Background {
  public:
@@ -34,10 +32,11 @@ class Background {
     for (auto& a : args) argv.push_back(a.data());
     argv.push_back(nullptr);
     out_ = std::filesystem::temp_directory_path() / ("mrsns-robot-sim-" + std::to_string(::getpid()) + ".json");
+    err_ = std::filesystem::temp_directory_path() / ("mrsns-robot-sim-" + std::to_string(::getpid()) + ".err");
     posix_spawn_file_actions_t actions;
     posix_spawn_file_actions_init(&actions);
     posix_spawn_file_actions_addopen(&actions, 1, out_.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    posix_spawn_file_actions_addopen(&actions, 2, "/dev/null", O_WRONLY, 0);
+    posix_spawn_file_actions_addopen(&actions, 2, err_.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
     if (posix_spawn(&pid_, argv[0], &actions, nullptr, argv.data(), environ) != 0) pid_ = -1;
     posix_spawn_file_actions_destroy(&actions);
   }
@@ -58,6 +57,13 @@ class Background {
   }
   Background(const Background&) = delete;
   Background& operator=(const Background&) = delete;
+  /// What the process wrote to stderr so far (why it could not start).
+  std::string errors() const {
+    std::ifstream in(err_);
+    std::stringstream s;
+    s << in.rdbuf();
+    return s.str();
+  }
   /// SIGTERM, then the exit code and stdout.
   std::pair<int, std::string> stop() {
     ::kill(pid_, SIGTERM);
@@ -73,30 +79,41 @@ class Background {
  private:
   pid_t pid_ = -1;
   bool done_ = false;
-  std::filesystem::path out_;
+  std::filesystem::path out_, err_;
 };
 
 }  // namespace
 
 TEST(CliRobotSim, StatusOfTheSimulatorOverLoopback) {
-  // The simulator's four ports (UR numbers + offset) lie in the kernel's
-  // ephemeral range, so another test's connection may hold one: the
-  // simulator then exits at once (cannot listen) and the next offset is tried.
+  // The simulator binds 29999, 30002, 30003 and 30004 + offset. The offset
+  // comes from a port the kernel just handed out (free, nobody listening),
+  // as RTDE's; another process may still take one of the four meanwhile:
+  // the simulator then exits at once (saying so on stderr) and new ports are
+  // tried. The simulator is asked for its status once its dashboard accepts.
   std::unique_ptr<Background> sim;
   int port_offset = 0;
   CliResult status;
-  for (int attempt = 0; attempt < 5 && status.exit_code != 0; ++attempt) {
-    port_offset = portOffset() + 997 * attempt;
+  std::string why;
+  for (int attempt = 0; attempt < 8 && status.exit_code != 0; ++attempt) {
+    const int rtde = mrsns::test::closedPort();
+    if (rtde < 30004 || rtde - 30004 > 35000) continue;
+    port_offset = rtde - 30004;
     const auto offset = std::to_string(port_offset);
     sim = std::make_unique<Background>(
         std::vector<std::string>{"robot-sim", "--port-offset", offset, "--duration", "30", "--json"});
     const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(15);
-    do {
-      std::this_thread::sleep_for(std::chrono::milliseconds(100));
-      status = runCli({"robot-status", "--port-offset", offset, "--json"});
-    } while (status.exit_code != 0 && sim->running() && std::chrono::steady_clock::now() < deadline);
+    while (sim->running() && !mrsns::test::accepts(29999 + port_offset) &&
+           std::chrono::steady_clock::now() < deadline) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    if (!sim->running()) {
+      why += "attempt " + std::to_string(attempt) + ", offset " + offset + ": " + sim->errors();
+      continue;
+    }
+    status = runCli({"robot-status", "--port-offset", offset, "--json"});
+    if (status.exit_code != 0) why += "attempt " + std::to_string(attempt) + ": " + status.err;
   }
-  ASSERT_EQ(status.exit_code, 0) << status.err;
+  ASSERT_EQ(status.exit_code, 0) << why;
   const auto j = nlohmann::json::parse(status.out);
   EXPECT_EQ(j["robot_mode"], "RUNNING");
   EXPECT_EQ(j["safety_mode"], "NORMAL");
@@ -120,8 +137,10 @@ TEST(CliRobotSim, StatusOfTheSimulatorOverLoopback) {
 }
 
 TEST(CliRobotSim, NoControllerIsOneLineError) {
-  // Nothing listens at this offset (a second process would have to pick the same pid-derived offset).
-  const auto r = runCli({"robot-status", "--port-offset", std::to_string(portOffset() + 7), "--timeout", "0.5"});
+  // Nothing listens on the dashboard port: one the kernel just handed out and nobody took.
+  const int dashboard = mrsns::test::closedPort();
+  ASSERT_GT(dashboard, 29999);
+  const auto r = runCli({"robot-status", "--port-offset", std::to_string(dashboard - 29999), "--timeout", "0.5"});
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_NE(r.err.find("dashboard"), std::string::npos) << r.err;
   EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
