@@ -43,6 +43,24 @@ TEST(Image, SubVolumeUpdate) {
   EXPECT_EQ(back.pixels, im.pixels);
 }
 
+// Scalars wider than a byte come out little-endian whatever the sender
+// used; 8-bit pixels and little-endian data are returned as they are.
+TEST(Image, LittleEndianPixelsSwapsBigEndianScalars) {
+  ImageContent im;
+  im.scalar_type = ScalarType::kInt32;
+  im.endian = PixelEndian::kBig;
+  im.resizeWhole({2, 1, 1});
+  im.pixels = {0x01, 0x02, 0x03, 0x04, 0xff, 0xff, 0xff, 0xfe};
+  EXPECT_EQ(im.littleEndianPixels(), (std::vector<std::uint8_t>{0x04, 0x03, 0x02, 0x01, 0xfe, 0xff, 0xff, 0xff}));
+  im.endian = PixelEndian::kLittle;
+  EXPECT_EQ(im.littleEndianPixels(), im.pixels);
+  im.scalar_type = ScalarType::kUint8;
+  im.endian = PixelEndian::kBig;
+  im.resizeWhole({8, 1, 1});
+  im.pixels = {1, 2, 3, 4, 5, 6, 7, 8};
+  EXPECT_EQ(im.littleEndianPixels(), im.pixels);
+}
+
 TEST(PolyDataMesh, MeshRoundTripKeepsTrianglesNormalsAndColours) {
   TriangleMesh mesh;
   mesh.vertices.resize(4, 3);

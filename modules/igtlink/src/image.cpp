@@ -1,5 +1,7 @@
 #include "mrsns/igtlink/image.h"
 
+#include <algorithm>
+
 #include "matrix_wire.h"
 #include "mrsns/igtlink/byte_order.h"
 #include "mrsns/igtlink/transform.h"
@@ -50,6 +52,18 @@ void ImageContent::resizeWhole(std::array<std::uint16_t, 3> dims) {
 std::uint64_t ImageContent::expectedPixelBytes() const {
   return std::uint64_t{subvolume_size[0]} * subvolume_size[1] * subvolume_size[2] * components *
          scalarSize(static_cast<std::uint8_t>(scalar_type));
+}
+
+std::vector<std::uint8_t> ImageContent::littleEndianPixels() const {
+  std::vector<std::uint8_t> out = pixels;
+  const std::size_t element = scalarSize(static_cast<std::uint8_t>(scalar_type));
+  if (endian == PixelEndian::kBig && element > 1) {
+    for (std::size_t i = 0; i + element <= out.size(); i += element) {
+      std::reverse(out.begin() + static_cast<std::ptrdiff_t>(i),
+                   out.begin() + static_cast<std::ptrdiff_t>(i + element));
+    }
+  }
+  return out;
 }
 
 namespace {

@@ -1,6 +1,5 @@
 #include "mrsns/tracking/igtl_source.h"
 
-#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -76,15 +75,7 @@ TrackedImage imageFrom(const igtlink::Message& message, const igtlink::ImageCont
   image.geometry.direction = content.direction();
   image.format.scalar = pixelTypeOf(content.scalar_type);
   image.format.components = content.components;
-  image.pixels = content.pixels;
-  // Pixels in host (little-endian) order, whatever the sender used.
-  const std::size_t element = igtlink::scalarSize(static_cast<std::uint8_t>(content.scalar_type));
-  if (content.endian == igtlink::PixelEndian::kBig && element > 1) {
-    for (std::size_t i = 0; i + element <= image.pixels.size(); i += element) {
-      std::reverse(image.pixels.begin() + static_cast<std::ptrdiff_t>(i),
-                   image.pixels.begin() + static_cast<std::ptrdiff_t>(i + element));
-    }
-  }
+  image.pixels = content.littleEndianPixels();
   return image;
 }
 

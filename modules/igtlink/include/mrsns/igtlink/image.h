@@ -56,6 +56,10 @@ struct ImageContent {
   void resizeWhole(std::array<std::uint16_t, 3> dims);
   /// Bytes the pixel array must hold for the current header fields.
   [[nodiscard]] std::uint64_t expectedPixelBytes() const;
+  /// The pixels with every scalar in little-endian byte order (the order of
+  /// the hosts MR-SNS runs on, and of its image and sequence files), whatever
+  /// `endian` the sender used.
+  [[nodiscard]] std::vector<std::uint8_t> littleEndianPixels() const;
 };
 
 inline constexpr std::size_t kImageHeaderSize = 72;
