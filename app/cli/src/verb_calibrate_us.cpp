@@ -122,6 +122,11 @@ Report run(const CalibrateUsOptions& options) {
     j["tracker_lag_curvature_mm_per_s2"] = run.tracker_lag.curvature_mm_per_s2;
   }
   if (!run.tracker_lag.note.empty()) j["tracker_lag_note"] = run.tracker_lag.note;
+  // What to do about a lag the sweep points to, in this tool's terms.
+  const std::string lag_advice =
+      run.tracker_lag_check && run.tracker_lag_check->significant
+          ? run.tracker_lag_check->advice + " (mrsns-cli calibrate-temporal, or --tracker-lag-ms auto)"
+          : std::string();
   if (run.tracker_lag_check) {
     const auto& c = *run.tracker_lag_check;
     Json check{{"estimated", c.estimate.estimated}, {"significant", c.significant}};
@@ -132,7 +137,7 @@ Report run(const CalibrateUsOptions& options) {
       check["calibration_error_as_applied_mm"] = c.error_as_applied_mm;
     }
     if (!c.estimate.note.empty()) check["note"] = c.estimate.note;
-    if (c.significant) check["advice"] = c.advice + " (mrsns-cli calibrate-temporal, or --tracker-lag-ms auto)";
+    if (c.significant) check["advice"] = lag_advice;
     j["tracker_lag_check"] = check;
   }
   j["seconds"] = run.seconds;
@@ -149,10 +154,7 @@ Report run(const CalibrateUsOptions& options) {
        << "  validation: " << run.validation_frames_paired << "/" << run.validation.total_frames
        << " frames, 3D reprojection " << run.validation_errors.reprojection_3d_mean_mm << " +/- "
        << run.validation_errors.reprojection_3d_std_mm << " mm\n";
-  if (run.tracker_lag_check && run.tracker_lag_check->significant) {
-    text << "  warning: " << run.tracker_lag_check->advice
-         << " (mrsns-cli calibrate-temporal, or --tracker-lag-ms auto)\n";
-  }
+  if (!lag_advice.empty()) text << "  warning: " << lag_advice << "\n";
   if (!options.reference_results.empty()) {
     const Eigen::Matrix4d ref = ultrasound::readPlusImageToProbe(options.reference_results);
     const double w = static_cast<double>(calibration.geometry.size[0] - 1);

@@ -192,14 +192,21 @@ TimedSignal videoLineSignal(const TrackedSequence& sequence, const LineSignalOpt
   std::vector<std::pair<double, double>> samples;
   std::vector<Eigen::Vector2d> peaks;
   std::vector<double> profile(static_cast<std::size_t>(roi.height));
+  // MF frames are used in place; only other orientations are flipped (a copy).
+  const bool mf_already =
+      sequence.orientation.size() >= 2 && sequence.orientation[0] == 'M' && sequence.orientation[1] == 'F';
+  std::vector<std::uint8_t> flipped;
+  std::size_t valid = 0;
   for (const auto& frame : sequence.frames) {
     // PLUS marks dropped frames ImageStatus INVALID; no status means valid.
     if (!frame.image_status.empty() && frame.image_status != "OK") continue;
+    ++valid;
     if (frame.pixels.size() != sequence.frameBytes()) {
       throw InvalidArgumentError("line detection: a frame has no pixels (read the sequence with its pixels)");
     }
-    const auto mf = toMfPixels(sequence, frame);
-    const cv::Mat img(h, w, CV_8U, const_cast<std::uint8_t*>(mf.data()));
+    if (!mf_already) flipped = toMfPixels(sequence, frame);
+    const std::uint8_t* pixels = mf_already ? frame.pixels.data() : flipped.data();
+    const cv::Mat img(h, w, CV_8U, const_cast<std::uint8_t*>(pixels));
     cv::Mat smooth;
     // Vertical smoothing only: the line runs across, speckle does not.
     cv::GaussianBlur(img(roi), smooth, cv::Size(1, 7), 0.0, 2.0);
@@ -216,10 +223,6 @@ TimedSignal videoLineSignal(const TrackedSequence& sequence, const LineSignalOpt
     }
     samples.emplace_back(frame.timestamp, a + b * centre_x);
   }
-  const auto valid =
-      static_cast<std::size_t>(std::count_if(sequence.frames.begin(), sequence.frames.end(), [](const auto& f) {
-        return f.image_status.empty() || f.image_status == "OK";
-      }));
   if (static_cast<double>(samples.size()) < options.min_found_fraction * static_cast<double>(valid)) {
     throw ComputationError("line detection: the target line was found in " + std::to_string(samples.size()) + " of " +
                            std::to_string(valid) +
@@ -258,14 +261,14 @@ TemporalCalibrationResult calibrateTemporal(const TimedSignal& tracker, const Ti
                            "image line stands still, clip the frames to the target: the transducer's ringing or "
                            "another echo may be what was followed)");
   }
+  // A lag that leaves most of the video without tracker data is not
+  // trusted: short overlaps correlate by chance.
+  const auto min_overlap = std::max(
+      options.min_samples, static_cast<std::size_t>(std::ceil(options.min_overlap_fraction * r.video_samples)));
   const int steps = static_cast<int>(std::ceil(options.max_lag_s / options.lag_step_s));
   for (int i = -steps; i <= steps; ++i) {
     const double lag = i * options.lag_step_s;
     r.lags_s.push_back(lag);
-    // A lag that leaves most of the video without tracker data is not
-    // trusted: short overlaps correlate by chance.
-    const auto min_overlap = std::max(
-        options.min_samples, static_cast<std::size_t>(std::ceil(options.min_overlap_fraction * r.video_samples)));
     r.correlations.push_back(ncc(tracker, video, lag, min_overlap));
   }
   // The sign of the coupling between the two signals is unknown (probe axis
