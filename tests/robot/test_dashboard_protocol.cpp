@@ -20,6 +20,17 @@ TEST(DashboardProtocol, CommandLines) {
   EXPECT_EQ(commandLine(Command::SafetyStatus), "safetystatus");
   EXPECT_EQ(commandLine(Command::UnlockProtectiveStop), "unlock protective stop");
   EXPECT_EQ(commandLine(Command::CloseSafetyPopup), "close safety popup");
+  EXPECT_EQ(commandLine(Command::IsInRemoteControl), "is in remote control");
+  EXPECT_EQ(commandLine(Command::GetRobotModel), "get robot model");
+  EXPECT_EQ(commandLine(Command::GetSerialNumber), "get serial number");
+  EXPECT_EQ(commandLine(Command::ProgramState), "programState");
+  EXPECT_EQ(commandLine(Command::GetLoadedProgram), "get loaded program");
+  EXPECT_EQ(parseCommand("is in remote control\r\n"), Command::IsInRemoteControl);
+  // Four numbers, as PolyScope sends them ("URSoftware 5.8.0.10253 (Jun 19 2020)"): ur_rtde parses them all.
+  EXPECT_EQ(polyscopeVersionReply(5, 8, 0, 10253), "URSoftware 5.8.0.10253 (MR-SNS UR simulator)");
+  EXPECT_TRUE(interpretReply(Command::PolyscopeVersion, successReply(Command::PolyscopeVersion)).accepted);
+  EXPECT_EQ(remoteControlReply(true), "true");
+  EXPECT_EQ(programStateReply(false), "STOPPED <unnamed>");
   EXPECT_EQ(parseCommand("unlock protective stop\r\n"), Command::UnlockProtectiveStop);
   EXPECT_EQ(parseCommand("  robotmode \n"), Command::RobotMode);
   EXPECT_FALSE(parseCommand("fly"));

@@ -80,6 +80,26 @@ TEST(RtdeProtocol, SetupOutputsGoldenBytes) {
   EXPECT_EQ(recipe.payloadSize(), 8u + 48u);
 }
 
+// ur_rtde 1.6 ends its variable list with a comma ("timestamp,actual_q,"): one trailing comma adds no empty
+// variable, as on a real controller; an empty name inside the list is still an (unknown) empty variable.
+TEST(RtdeProtocol, SetupRequestsTolerateOneTrailingComma) {
+  Bytes outputs{0x00, 0x00, 0x4F};
+  appendDouble(outputs, 500.0);
+  appendString(outputs, "timestamp,actual_q,");
+  outputs[1] = static_cast<std::uint8_t>(outputs.size());
+  EXPECT_EQ(decodeSetupOutputsRequest(decodePackage(outputs)).names,
+            (std::vector<std::string>{"timestamp", "actual_q"}));
+  Bytes inputs{0x00, 0x00, 0x49};
+  appendString(inputs, "input_int_register_0,");
+  inputs[1] = static_cast<std::uint8_t>(inputs.size());
+  EXPECT_EQ(decodeSetupInputsRequest(decodePackage(inputs)), (std::vector<std::string>{"input_int_register_0"}));
+  Bytes gap{0x00, 0x00, 0x49};
+  appendString(gap, "input_int_register_0,,input_int_register_1");
+  gap[1] = static_cast<std::uint8_t>(gap.size());
+  EXPECT_EQ(decodeSetupInputsRequest(decodePackage(gap)),
+            (std::vector<std::string>{"input_int_register_0", "", "input_int_register_1"}));
+}
+
 TEST(RtdeProtocol, SetupInputsGoldenBytesAndRefusal) {
   Bytes expected{0x00, 0x00, 0x49};
   appendString(expected, "input_int_register_0");

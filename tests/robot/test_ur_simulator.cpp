@@ -10,6 +10,7 @@
 
 #include <atomic>
 #include <chrono>
+#include <cstring>
 #include <fstream>
 #include <thread>
 
@@ -189,6 +190,33 @@ TEST(UrSimulator, RtdeNegotiationAndDataRate) {
   }
 }
 
+// ur_rtde's RTDEReceiveInterface asks for its 57 default outputs at 500 Hz with a trailing comma after the last
+// name (seen on the wire from ur_rtde 1.6.5): the controller sets the recipe up and streams it.
+TEST(UrSimulator, RtdeSetupWithTrailingCommaAsUrRtdeSendsIt) {
+  UrSimulator sim(ephemeral());
+  RawClient c(sim.rtdePort());
+  c.send(rtde::encodeRequestProtocolVersion(2));
+  ASSERT_TRUE(rtde::decodeAccepted(c.rtdePackage(), rtde::PackageType::RequestProtocolVersion));
+  const std::string text = "timestamp,actual_q,robot_mode,output_int_register_12,output_double_register_19,";
+  std::vector<std::uint8_t> payload(8, 0);
+  const double frequency = 500.0;
+  std::uint64_t bits = 0;
+  std::memcpy(&bits, &frequency, sizeof bits);
+  for (int i = 0; i < 8; ++i) payload[static_cast<std::size_t>(i)] = static_cast<std::uint8_t>(bits >> (56 - 8 * i));
+  payload.insert(payload.end(), text.begin(), text.end());
+  c.send(rtde::encodePackage(rtde::PackageType::SetupOutputs, payload));
+  const auto reply = rtde::decodeSetupReply(c.rtdePackage(), rtde::PackageType::SetupOutputs);
+  EXPECT_NE(reply.recipe_id, 0);
+  EXPECT_EQ(reply.types, (std::vector<std::string>{"DOUBLE", "VECTOR6D", "INT32", "INT32", "DOUBLE"}));
+  const std::vector<std::string> names{"timestamp", "actual_q", "robot_mode", "output_int_register_12",
+                                       "output_double_register_19"};
+  const auto recipe = rtde::recipeFromReply(names, reply);
+  c.send(rtde::encodeStart());
+  ASSERT_TRUE(rtde::decodeAccepted(c.rtdePackage(), rtde::PackageType::Start));
+  const auto data = rtde::decodeDataPackage(c.rtdePackage(), recipe);
+  EXPECT_EQ(std::get<std::int32_t>(data[2]), static_cast<int>(UrRobotMode::Running));
+}
+
 TEST(UrSimulator, RtdeInputsAreExclusivePerClient) {
   UrSimulator sim(ephemeral());
   RawClient a(sim.rtdePort()), b(sim.rtdePort());
@@ -244,6 +272,44 @@ TEST(UrSimulator, DashboardGoldenRepliesOnTheWire) {
     c.send(command + "\n");
     EXPECT_EQ(line(), reply) << command;
   }
+}
+
+// What third-party clients ask of a PolyScope 5.6+ dashboard server (ur_rtde 1.6: isInRemoteControl and
+// getSerialNumber parse "URSoftware major.minor.bugfix.build" and throw on three numbers; labs check remote
+// control before starting RTDEControlInterface), replied as a real controller does.
+TEST(UrSimulator, DashboardQueriesOfClientLibraries) {
+  UrSimulatorOptions options = ephemeral();
+  options.version = {5, 11, 2, 108};
+  options.serial_number = "20235500042";
+  UrSimulator sim(options);
+  RawClient c(sim.dashboardPort());
+  auto line = [&c]() {
+    std::string s;
+    for (;;) {
+      const auto b = c.receiveExactly(1)[0];
+      if (b == '\n') return s;
+      s += static_cast<char>(b);
+    }
+  };
+  EXPECT_EQ(line(), "Connected: Universal Robots Dashboard Server");
+  const std::vector<std::pair<std::string, std::string>> dialogue{
+      {"PolyscopeVersion", "URSoftware 5.11.2.108 (MR-SNS UR simulator)"},
+      {"is in remote control", "true"},
+      {"get robot model", "UR5"},
+      {"get serial number", "20235500042"},
+      {"get loaded program", "No program loaded"},
+      {"programState", "STOPPED <unnamed>"},
+      {"play", "Starting program"},
+      {"programState", "PLAYING <unnamed>"},
+      {"stop", "Stopped"},
+      {"programState", "STOPPED <unnamed>"}};
+  for (const auto& [command, reply] : dialogue) {
+    c.send(command + "\n");
+    EXPECT_EQ(line(), reply) << command;
+  }
+  // Our own client accepts the four-number version line.
+  DashboardClient client({"127.0.0.1", sim.dashboardPort(), 2.0});
+  EXPECT_EQ(client.polyscopeVersion(), "URSoftware 5.11.2.108 (MR-SNS UR simulator)");
 }
 
 TEST(UrSimulator, ScriptLinesMoveTheArmAndSecondaryStreamsState) {

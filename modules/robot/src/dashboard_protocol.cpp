@@ -157,7 +157,7 @@ UrSafetyMode toUrSafetyMode(SafetyMode mode) {
 namespace dashboard {
 namespace {
 
-constexpr std::array<std::pair<Command, const char*>, 14> kCommands{{
+constexpr std::array<std::pair<Command, const char*>, 19> kCommands{{
     {Command::PowerOn, "power on"},
     {Command::PowerOff, "power off"},
     {Command::BrakeRelease, "brake release"},
@@ -172,6 +172,11 @@ constexpr std::array<std::pair<Command, const char*>, 14> kCommands{{
     {Command::Running, "running"},
     {Command::PolyscopeVersion, "PolyscopeVersion"},
     {Command::Quit, "quit"},
+    {Command::IsInRemoteControl, "is in remote control"},
+    {Command::GetRobotModel, "get robot model"},
+    {Command::GetSerialNumber, "get serial number"},
+    {Command::ProgramState, "programState"},
+    {Command::GetLoadedProgram, "get loaded program"},
 }};
 
 }  // namespace
@@ -202,11 +207,16 @@ std::string successReply(Command command) {
     case Command::UnlockProtectiveStop: return "Protective stop releasing";
     case Command::CloseSafetyPopup: return "closing safety popup";
     case Command::Quit: return "Disconnected";
-    case Command::PolyscopeVersion: return "URSoftware 5.8.0 (MR-SNS UR simulator)";
+    case Command::PolyscopeVersion: return polyscopeVersionReply(5, 8, 0, 0);
     case Command::RobotMode:
     case Command::SafetyMode:
     case Command::SafetyStatus:
-    case Command::Running: break;
+    case Command::Running:
+    case Command::IsInRemoteControl:
+    case Command::GetRobotModel:
+    case Command::GetSerialNumber:
+    case Command::ProgramState:
+    case Command::GetLoadedProgram: break;
   }
   return {};
 }
@@ -224,6 +234,19 @@ std::string failureReply(Command command) {
 std::string unlockTooEarlyReply() {
   return "Cannot unlock protective stop until 5s after occurrence. Always inspect cause of protective stop before "
          "unlocking";
+}
+
+std::string polyscopeVersionReply(unsigned major, unsigned minor, unsigned bugfix, unsigned build) {
+  return "URSoftware " + std::to_string(major) + "." + std::to_string(minor) + "." + std::to_string(bugfix) + "." +
+         std::to_string(build) + " (MR-SNS UR simulator)";
+}
+
+std::string remoteControlReply(bool remote) {
+  return remote ? "true" : "false";
+}
+
+std::string programStateReply(bool running, std::string_view program) {
+  return std::string(running ? "PLAYING " : "STOPPED ") + std::string(program);
 }
 
 std::string robotModeReply(UrRobotMode mode) {

@@ -497,18 +497,26 @@ std::uint16_t decodeRequestProtocolVersion(const Package& package) {
   return v;
 }
 
+// The variable names of a setup request. One trailing comma is no empty variable: ur_rtde sends
+// "timestamp,actual_q,...,output_double_register_19," and a real controller sets that recipe up.
+std::vector<std::string> requestedNames(std::string_view text) {
+  auto names = splitComma(text);
+  if (names.size() > 1 && names.back().empty()) names.pop_back();
+  return names;
+}
+
 SetupOutputsRequest decodeSetupOutputsRequest(const Package& package) {
   expectType(package, PackageType::SetupOutputs);
   BeReader r(package.payload, "RTDE_CONTROL_PACKAGE_SETUP_OUTPUTS request");
   SetupOutputsRequest out;
   out.frequency_hz = r.f64("output_frequency");
-  out.names = splitComma(r.rest());
+  out.names = requestedNames(r.rest());
   return out;
 }
 
 std::vector<std::string> decodeSetupInputsRequest(const Package& package) {
   expectType(package, PackageType::SetupInputs);
-  return splitComma(std::string(package.payload.begin(), package.payload.end()));
+  return requestedNames(std::string(package.payload.begin(), package.payload.end()));
 }
 
 std::vector<std::uint8_t> encodeAccepted(PackageType type, bool accepted) {

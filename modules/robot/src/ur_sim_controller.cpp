@@ -136,10 +136,19 @@ std::string SimController::dashboard(std::string_view line, bool& close) {
         return dashboard::unlockTooEarlyReply();
       }
       return dashboard::successReply(*command);
-    case Command::CloseSafetyPopup:
-    case Command::PolyscopeVersion: return dashboard::successReply(*command);
+    case Command::CloseSafetyPopup: return dashboard::successReply(*command);
+    case Command::PolyscopeVersion:
+      return dashboard::polyscopeVersionReply(options_.version.major, options_.version.minor, options_.version.bugfix,
+                                              options_.version.build);
     case Command::Running: return dashboard::runningReply(program_running_);
     case Command::Quit: close = true; return dashboard::successReply(*command);
+    // The simulator takes commands from the network whatever the pendant would say: always in remote control.
+    case Command::IsInRemoteControl: return dashboard::remoteControlReply(true);
+    case Command::GetRobotModel: return "UR5";
+    case Command::GetSerialNumber: return options_.serial_number;
+    case Command::ProgramState: return dashboard::programStateReply(program_running_);
+    // Script lines run directly; no .urp program is ever loaded.
+    case Command::GetLoadedProgram: return "No program loaded";
   }
   return dashboard::notUnderstoodReply(line);
 }

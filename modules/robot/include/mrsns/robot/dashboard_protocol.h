@@ -75,6 +75,13 @@ enum class Command {
   Running,
   PolyscopeVersion,
   Quit,
+  // Queries of PolyScope 5.6+ that client libraries ask (ur_rtde's isInRemoteControl, getRobotModel,
+  // getSerialNumber, programState, getLoadedProgram).
+  IsInRemoteControl,
+  GetRobotModel,
+  GetSerialNumber,
+  ProgramState,
+  GetLoadedProgram,
 };
 
 /// The command line without its newline ("power on", "unlock protective stop", ...).
@@ -107,6 +114,13 @@ std::string runningReply(bool running);
 std::string notUnderstoodReply(std::string_view line);
 /// The controller refuses to unlock within 5 s of the protective stop.
 std::string unlockTooEarlyReply();
+/// "PolyscopeVersion": "URSoftware 5.8.0.10253 (<build date>)". Four numbers, as a real controller sends them:
+/// clients (ur_rtde) parse major.minor.bugfix.build and refuse anything shorter.
+std::string polyscopeVersionReply(unsigned major, unsigned minor, unsigned bugfix, unsigned build);
+/// "is in remote control": "true" / "false".
+std::string remoteControlReply(bool remote);
+/// "programState": "PLAYING <name>", "STOPPED <name>" (the program's name; "<unnamed>" without a file).
+std::string programStateReply(bool running, std::string_view program = "<unnamed>");
 
 }  // namespace dashboard
 }  // namespace mrsns::robot

@@ -5,7 +5,9 @@
 //    1..500 Hz, sent every round(500 / f) control cycles), input recipes (input registers, IN_USE across
 //    clients), start/pause, input data packages.
 //  - Dashboard (29999): power on/off, brake release, play/stop/pause, robotmode, safetymode/safetystatus,
-//    unlock protective stop, close safety popup, running, PolyscopeVersion, quit.
+//    unlock protective stop, close safety popup, running, PolyscopeVersion, quit, and the PolyScope 5.6+ queries
+//    client libraries make (is in remote control: true, get robot model: UR5, get serial number, programState,
+//    get loaded program).
 //  - Secondary (30002) and real-time (30003) script interfaces: one URScript command per line (servoj, speedl,
 //    movel, movej, stopj, stopl, protective_stop); the secondary port also streams primary ROBOT_STATE messages
 //    (robot mode, joint, cartesian and kinematics sub-packages) at 10 Hz after a VERSION message.
@@ -32,7 +34,11 @@ struct UrSimulatorOptions {
   bool start_ready = true;
   /// The controller refuses "unlock protective stop" earlier than this after the stop (UR: 5 s).
   double unlock_delay_s = 5.0;
+  /// Controller software version: RTDE get_urcontrol_version, the primary VERSION message and the dashboard's
+  /// PolyscopeVersion ("URSoftware 5.8.0.0 (...)"; clients such as ur_rtde need all four numbers).
   rtde::UrControlVersion version{5, 8, 0, 0};
+  /// The dashboard's "get serial number" reply (digits only, as a real controller's).
+  std::string serial_number = "20185500001";
 };
 
 struct UrSimulatorStats {
