@@ -1,0 +1,208 @@
+#pragma once
+// The scenario of a simulated operating room: the world (camera, patient,
+// phantom, robot), the tools and what the virtual operator does with them,
+// the devices' noise models, the faults on schedule, or a recording to
+// replay. Read from JSON (format "mrsns-scenario/1", doc/README.md); every
+// unknown key is refused, so a typo never silently falls back to a default.
+#include <Eigen/Geometry>
+#include <array>
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace mrsns::simulation {
+
+/// Frames a scenario pose can be given in. Reference, Phantom and CT follow
+/// the patient's reference marker as it moves.
+enum class PoseFrame { Tracker, Reference, Phantom, CT, RobotBase };
+
+/// What a motion segment's pose places: the tool's marker, or (for the
+/// probe) its image plane, from which the marker follows through the true
+/// ImageToProbe.
+enum class PoseOf { Tool, Image };
+
+enum class MotionKind { Hold, Move, Sweep, Pivot, UpDown };
+
+/// One step of the virtual operator's timeline for one tool.
+struct MotionSegment {
+  MotionKind kind = MotionKind::Hold;
+  double duration_s = 1.0;
+  PoseFrame frame = PoseFrame::Tracker;
+  PoseOf pose_of = PoseOf::Tool;
+  /// hold: where; move: target (minimum-jerk from the previous pose);
+  /// sweep: the far end (back and forth from the previous pose).
+  std::optional<Eigen::Isometry3d> pose;
+  int cycles = 1;  ///< sweep: round trips
+  /// pivot: the tip that stays put (tool frame); absent: the tool's tip_mm.
+  std::optional<Eigen::Vector3d> tip_tool;
+  double amplitude_deg = 20.0;                           ///< pivot: swing; up_down: unused
+  double frequency_hz = 0.25;                            ///< pivot and up_down
+  bool one_axis = false;                                 ///< pivot about one axis only (a degenerate acquisition)
+  double amplitude_mm = 10.0;                            ///< up_down
+  Eigen::Vector3d axis_tool = Eigen::Vector3d::UnitZ();  ///< up_down direction (tool frame)
+};
+
+/// The operator's hand (paper 001 §II.C: physiological tremor 8-12 Hz).
+struct HandModel {
+  double tremor_rms_mm = 0.0;
+  double tremor_min_hz = 8.0;
+  double tremor_max_hz = 12.0;
+  double tremor_rotation_rms_deg = 0.0;
+  double drift_mm = 0.0;  ///< slow wander amplitude
+  double drift_hz = 0.05;
+  double slips_per_min = 0.0;  ///< sudden displacements that the hand corrects in ~0.5 s
+  double slip_mm = 2.0;
+};
+
+struct ToolSpec {
+  std::string name;  ///< PLUS transform name, "StylusToTracker"
+  /// Radius of the marker's footprint for line-of-sight tests (mm).
+  double marker_radius_mm = 25.0;
+  /// Where the pose starts (before the first segment), in `start_frame`.
+  Eigen::Isometry3d start = Eigen::Isometry3d::Identity();
+  PoseFrame start_frame = PoseFrame::Tracker;
+  std::vector<MotionSegment> motion;
+  HandModel hand;
+  /// Tool tip in marker coordinates (truth, for scoring pivot calibration).
+  std::optional<Eigen::Vector3d> tip_tool;
+};
+
+/// A sphere that blocks the camera's view (the operator's head or hand).
+/// Attached to a tool it moves with it (offset in that tool's frame).
+struct Occluder {
+  Eigen::Vector3d center = Eigen::Vector3d::Zero();
+  double radius_mm = 80.0;
+  std::string attached_to;  ///< tool name, or empty (fixed in the tracker frame)
+};
+
+/// An optical tracker's measurement volume: a frustum along -z of the
+/// tracker frame (NDI convention: the volume lies at negative z).
+struct MeasurementVolume {
+  double near_mm = 950.0;
+  double far_mm = 2400.0;
+  double half_angle_x_deg = 18.0;
+  double half_angle_y_deg = 15.5;
+};
+
+/// Per-sample measurement noise of the tracker (datasheet figures).
+struct TrackerNoise {
+  double position_rms_mm = 0.12;  ///< 3D RMS (Polaris Vega: 0.12 mm RMS in its pyramid volume)
+  double orientation_rms_deg = 0.05;
+};
+
+struct TrackerSpec {
+  std::string bind_address = "127.0.0.1";
+  std::uint16_t port = 18944;  ///< 0: a free port (reported when ready)
+  double rate_hz = 60.0;
+  /// Highest header version spoken; a client gets v1 until it sends a v2 message (PlusServer's rule).
+  int max_header_version = 2;
+  /// PlusServer's SendValidTransformsOnly: invalid tools are not sent at all; false sends them to v2
+  /// clients with TransformStatus metadata.
+  bool send_valid_transforms_only = true;
+  TrackerNoise noise;
+  MeasurementVolume volume;
+  std::vector<Occluder> occluders;
+};
+
+/// The N-wire calibration phantom in its water bath.
+struct NWirePhantomSpec {
+  std::filesystem::path config;                       ///< PLUS device set with a PhantomDefinition
+  std::string reference_tool = "ReferenceToTracker";  ///< the marker the phantom is fixed to
+  Eigen::Isometry3d reference_T_phantom = Eigen::Isometry3d::Identity();
+  double wire_radius_mm = 0.25;
+  double bath_margin_mm = 30.0;  ///< the bath extends this far beyond the wires
+};
+
+/// The patient: the generated cervical phantom, or a CT's label map.
+struct PatientSpec {
+  bool generated = true;
+  double phantom_spacing_mm = 0.8;
+  std::filesystem::path labels;     ///< label map (any label != 0 is bone unless listed below)
+  std::vector<int> vessel_labels;   ///< labels that are vessel lumen, not bone
+  std::vector<int> ignored_labels;  ///< labels that are neither
+  std::string reference_tool = "ReferenceToTracker";
+  /// Where the CT sits relative to the reference marker (the truth a registration estimates).
+  Eigen::Isometry3d reference_T_ct = Eigen::Isometry3d::Identity();
+};
+
+struct UltrasoundSpec {
+  bool enabled = false;
+  double rate_hz = 25.0;
+  int width = 640;
+  int height = 480;
+  double spacing_x_mm = 0.1;
+  double spacing_y_mm = 0.1;
+  std::string probe_tool = "ProbeToTracker";
+  /// Image pixels (mm, MF) -> probe marker (the truth a spatial calibration estimates).
+  Eigen::Isometry3d probe_T_image = Eigen::Isometry3d::Identity();
+  /// The video shows the world as it was this long before its timestamp (truth of temporal calibration).
+  double video_lag_s = 0.0;
+  /// PLUS device name of the IMAGE messages; the image is placed in the frame after "Image_" (PlusServer's
+  /// Image_Reference) by the ImageToProbe the scenario declares as known to the server, or in its own frame.
+  std::string device_name = "Image_Image";
+  double attenuation_db_per_cm = 1.0;
+  double speckle = 1.0;  ///< 0 disables speckle
+};
+
+struct RobotSpec {
+  bool enabled = false;
+  std::uint16_t rtde_port = 30004;
+  std::uint16_t dashboard_port = 29999;
+  std::uint16_t secondary_port = 30002;
+  std::uint16_t realtime_port = 30003;
+  Eigen::Isometry3d tracker_T_base = Eigen::Isometry3d::Identity();
+  /// The tracked marker on the flange (truth of MarkerToFlange) and the drill tip in flange coordinates.
+  Eigen::Isometry3d flange_T_marker = Eigen::Isometry3d::Identity();
+  Eigen::Vector3d drill_tip_flange = Eigen::Vector3d(0.0, 0.0, 150.0);
+  std::string marker_tool = "FlangeToTracker";
+  std::array<double, 6> start_joints{0.0, -1.5708, 1.5708, -1.5708, -1.5708, 0.0};
+};
+
+enum class FaultKind { Occlusion, TrackerDisconnect, PatientShift, VideoFreeze, RobotProtectiveStop };
+
+struct Fault {
+  FaultKind kind = FaultKind::Occlusion;
+  double at_s = 0.0;
+  double duration_s = 0.0;  ///< occlusion, tracker_disconnect, video_freeze
+  std::string tool;         ///< occlusion
+  /// patient_shift: applied to the patient (and, unless relative_to_reference, to its reference marker).
+  Eigen::Isometry3d shift = Eigen::Isometry3d::Identity();
+  bool relative_to_reference = false;
+};
+
+struct ReplaySpec {
+  std::filesystem::path sequence;  ///< PLUS sequence (.mha/.mhd/.nrrd) with transforms and optionally images
+  double speed = 1.0;
+  bool loop = false;
+};
+
+struct Scenario {
+  std::string name = "unnamed";
+  std::filesystem::path source;  ///< the file it was read from (for messages)
+  std::uint64_t seed = 1;
+  double duration_s = 0.0;  ///< 0: until stopped
+  TrackerSpec tracker;
+  std::vector<ToolSpec> tools;
+  std::optional<NWirePhantomSpec> nwire_phantom;
+  std::optional<PatientSpec> patient;
+  UltrasoundSpec ultrasound;
+  RobotSpec robot;
+  std::vector<Fault> faults;
+  std::optional<ReplaySpec> replay;
+};
+
+/// Parses a scenario. Relative paths resolve against `base_dir`; "data:x/y"
+/// against the shared data directory (MRSNS_DATA_DIR). Throws
+/// FormatError naming the key path ("tools[2].motion[0].kind") for unknown
+/// keys, wrong types or values out of range, FileError for missing files.
+[[nodiscard]] Scenario parseScenario(const std::string& json_text, const std::filesystem::path& base_dir,
+                                     const std::string& source = "scenario");
+/// Reads and parses a scenario file.
+[[nodiscard]] Scenario readScenario(const std::filesystem::path& path);
+
+[[nodiscard]] const char* toString(FaultKind kind);
+[[nodiscard]] const char* toString(PoseFrame frame);
+
+}  // namespace mrsns::simulation

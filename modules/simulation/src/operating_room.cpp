@@ -1,0 +1,444 @@
+// The simulated operating room's threads: the tracker at its rate (truth ->
+// measurement noise -> PlusServer), the ultrasound video at its rate (world
+// at the probe plane, lagged -> B-mode -> IMAGE), the UR controller stepping
+// on its own, faults on schedule; or the replay of a recording.
+#include "mrsns/simulation/operating_room.h"
+
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <fstream>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <random>
+#include <thread>
+
+#include "mrsns/core/error.h"
+#include "mrsns/core/rigid.h"
+#include "mrsns/io/sequence_file.h"
+#include "mrsns/robot/ur_simulator.h"
+#include "mrsns/simulation/bmode_renderer.h"
+#include "mrsns/simulation/plus_server.h"
+#include "mrsns/simulation/world.h"
+
+namespace mrsns::simulation {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+constexpr double kDeg = M_PI / 180.0;
+// The UR5's reach from its base axis (Universal Robots: 850 mm).
+constexpr double kUr5ReachMm = 850.0;
+
+double utcNow() {
+  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+}
+
+// A pose as [x, y, z, qw, qx, qy, qz]: compact for the truth file.
+std::array<double, 7> compact(const Eigen::Isometry3d& p) {
+  const Eigen::Quaterniond q(p.linear());
+  return {p.translation().x(), p.translation().y(), p.translation().z(), q.w(), q.x(), q.y(), q.z()};
+}
+
+struct ToolSampleTruth {
+  std::array<double, 7> pose;
+  int visibility;
+};
+
+struct TrackerTruth {
+  double t;
+  double utc;
+  std::vector<ToolSampleTruth> tools;
+};
+
+struct FrameTruth {
+  double utc;
+  double content_t;  // world time the frame shows (t - lag)
+  std::array<double, 7> tracker_T_image;
+  bool frozen;
+};
+
+struct EventTruth {
+  double t;
+  double utc;
+  std::string what;
+};
+
+}  // namespace
+
+struct OperatingRoom::Impl {
+  Scenario scenario;
+  std::unique_ptr<World> world;
+  std::unique_ptr<PlusServerEmulator> plus;
+  std::unique_ptr<robot::UrSimulator> ur;
+  std::optional<TrackedSequence> replay;
+
+  std::atomic<bool> running{false};
+  std::atomic<bool> finished{false};
+  Clock::time_point t0;
+  double utc0 = 0.0;
+  std::thread tracker_thread, video_thread, replay_thread;
+
+  mutable std::mutex truth_mutex;
+  std::vector<std::string> tool_names;
+  std::vector<TrackerTruth> tracker_truth;
+  std::vector<FrameTruth> frame_truth;
+  std::vector<EventTruth> events;
+  OperatingRoomStats stats;
+
+  [[nodiscard]] double elapsed() const { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+  void event(double t, const std::string& what) {
+    std::lock_guard lock(truth_mutex);
+    events.push_back({t, utc0 + t, what});
+    ++stats.faults_fired;
+  }
+
+  // Sleeps until t0 + t_s, or returns false when stopping.
+  bool sleepUntil(double t_s) {
+    const auto deadline = t0 + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(t_s));
+    while (running.load()) {
+      const auto now = Clock::now();
+      if (now >= deadline) return true;
+      std::this_thread::sleep_for(std::min<Clock::duration>(deadline - now, std::chrono::milliseconds(20)));
+    }
+    return false;
+  }
+
+  void trackerLoop() {
+    std::mt19937_64 rng(scenario.seed * 31ULL + 5ULL);
+    std::normal_distribution<double> normal(0.0, 1.0);
+    const double sigma_p = scenario.tracker.noise.position_rms_mm / std::sqrt(3.0);
+    const double sigma_r = scenario.tracker.noise.orientation_rms_deg * kDeg / std::sqrt(3.0);
+    const double period = 1.0 / scenario.tracker.rate_hz;
+    std::vector<bool> started(scenario.faults.size(), false), ended(scenario.faults.size(), false);
+    for (std::uint64_t tick = 0; running.load(); ++tick) {
+      const double t_tick = tick * period;
+      if (!sleepUntil(t_tick)) break;
+      const double t = elapsed();
+      if (t > t_tick + period) {
+        std::lock_guard lock(truth_mutex);
+        ++stats.tracker_overruns;
+      }
+      if (scenario.duration_s > 0.0 && t >= scenario.duration_s) {
+        finished = true;
+        break;
+      }
+      fireFaults(t, started, ended);
+      std::optional<Eigen::Isometry3d> base_T_flange;
+      if (ur) base_T_flange = ur->armState().base_T_flange;
+      const auto truth = world->tools(t, base_T_flange);
+      std::vector<MeasuredTool> measured;
+      measured.reserve(truth.size());
+      TrackerTruth record{t, utc0 + t, {}};
+      std::uint64_t invalid = 0;
+      for (const auto& tool : truth) {
+        // Datasheet noise, independent per sample: position per axis, orientation as a small rotation.
+        Eigen::Isometry3d noisy = tool.tracker_T_tool;
+        noisy.translation() += sigma_p * Eigen::Vector3d(normal(rng), normal(rng), normal(rng));
+        noisy.linear() = noisy.linear() * so3Exp(sigma_r * Eigen::Vector3d(normal(rng), normal(rng), normal(rng)));
+        const bool valid = tool.visibility == Visibility::Visible;
+        if (!valid) ++invalid;
+        measured.push_back({tool.name, noisy.matrix(), valid});
+        record.tools.push_back({compact(tool.tracker_T_tool), static_cast<int>(tool.visibility)});
+      }
+      plus->publishTools(measured, utc0 + t);
+      std::lock_guard lock(truth_mutex);
+      if (tool_names.empty()) {
+        for (const auto& tool : truth) tool_names.push_back(tool.name);
+      }
+      tracker_truth.push_back(std::move(record));
+      ++stats.tracker_samples;
+      stats.invalid_tool_samples += invalid;
+    }
+  }
+
+  void fireFaults(double t, std::vector<bool>& started, std::vector<bool>& ended) {
+    for (std::size_t i = 0; i < scenario.faults.size(); ++i) {
+      const Fault& f = scenario.faults[i];
+      if (!started[i] && t >= f.at_s) {
+        started[i] = true;
+        std::string what = std::string(toString(f.kind)) + " start";
+        if (f.kind == FaultKind::TrackerDisconnect) plus->stop();
+        if (f.kind == FaultKind::RobotProtectiveStop) {
+          if (ur) {
+            ur->arm().protectiveStop();
+          } else {
+            what += " (no robot in the scenario)";
+          }
+        }
+        if (f.kind == FaultKind::Occlusion) what += " " + f.tool;
+        event(t, what);
+      }
+      const bool has_end =
+          f.kind == FaultKind::Occlusion || f.kind == FaultKind::TrackerDisconnect || f.kind == FaultKind::VideoFreeze;
+      if (has_end && started[i] && !ended[i] && t >= f.at_s + f.duration_s) {
+        ended[i] = true;
+        if (f.kind == FaultKind::TrackerDisconnect) {
+          try {
+            plus->start();
+          } catch (const Error& e) {
+            event(t, std::string("tracker_disconnect end failed: ") + e.what());
+            continue;
+          }
+        }
+        event(t, std::string(toString(f.kind)) + " end" + (f.kind == FaultKind::Occlusion ? " " + f.tool : ""));
+      }
+    }
+  }
+
+  [[nodiscard]] bool videoFrozen(double t) const {
+    for (const auto& f : scenario.faults) {
+      if (f.kind == FaultKind::VideoFreeze && t >= f.at_s && t < f.at_s + f.duration_s) return true;
+    }
+    return false;
+  }
+
+  void videoLoop() {
+    const auto& us = scenario.ultrasound;
+    BModeGeometry geometry{us.width, us.height, us.spacing_x_mm, us.spacing_y_mm};
+    BModeNoiseModel noise;
+    noise.attenuation_db_per_cm = us.attenuation_db_per_cm;
+    noise.speckle = us.speckle > 0.0;
+    BModeFrame frame;
+    frame.device_name = us.device_name;
+    frame.width = us.width;
+    frame.height = us.height;
+    frame.spacing_x_mm = us.spacing_x_mm;
+    frame.spacing_y_mm = us.spacing_y_mm;
+    const double period = 1.0 / us.rate_hz;
+    double render_ms_total = 0.0;
+    for (std::uint64_t tick = 0; running.load(); ++tick) {
+      if (!sleepUntil(tick * period)) break;
+      const double t = elapsed();
+      if (scenario.duration_s > 0.0 && t >= scenario.duration_s) break;
+      const double content_t = std::max(0.0, t - us.video_lag_s);
+      const bool frozen = videoFrozen(t) && !frame.pixels.empty();
+      Eigen::Isometry3d tracker_T_image = Eigen::Isometry3d::Identity();
+      double render_ms = 0.0;
+      if (!frozen) {
+        // A frozen frame grabber repeats its last frame with fresh timestamps.
+        tracker_T_image = world->trackerTImage(content_t);
+        const auto start = Clock::now();
+        frame.pixels = renderBModeFrame(world->echoScene(content_t), tracker_T_image, geometry, noise,
+                                        scenario.seed * 1000003ULL + tick);
+        render_ms = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+      }
+      plus->publishImage(frame, utc0 + t);
+      std::lock_guard lock(truth_mutex);
+      if (frozen) {
+        ++stats.frozen_frames;
+        frame_truth.push_back({utc0 + t, content_t,
+                               frame_truth.empty() ? compact(tracker_T_image) : frame_truth.back().tracker_T_image,
+                               true});
+      } else {
+        frame_truth.push_back({utc0 + t, content_t, compact(tracker_T_image), false});
+        render_ms_total += render_ms;
+        stats.max_frame_render_ms = std::max(stats.max_frame_render_ms, render_ms);
+      }
+      ++stats.video_frames;
+      const auto rendered = stats.video_frames - stats.frozen_frames;
+      stats.mean_frame_render_ms = rendered ? render_ms_total / static_cast<double>(rendered) : 0.0;
+    }
+  }
+
+  void replayLoop() {
+    const auto& seq = *replay;
+    const double speed = scenario.replay->speed;
+    const bool has_images = !seq.frames.empty() && seq.frames.front().hasPixels();
+    BModeFrame frame;
+    frame.device_name = "Image_Image";
+    frame.width = static_cast<int>(seq.geometry.size[0]);
+    frame.height = static_cast<int>(seq.geometry.size[1]);
+    frame.spacing_x_mm = seq.geometry.spacing[0];
+    frame.spacing_y_mm = seq.geometry.spacing[1];
+    double offset = 0.0;
+    const double first = seq.frames.front().timestamp;
+    const double span = seq.frames.back().timestamp - first;
+    do {
+      for (const auto& f : seq.frames) {
+        const double t = offset + (f.timestamp - first) / speed;
+        if (!sleepUntil(t)) return;
+        std::vector<MeasuredTool> tools;
+        for (const auto& [name, transform] : f.transforms) {
+          tools.push_back({name, transform.matrix, transform.status == TransformStatus::Ok});
+        }
+        // The recording's own timing, lag included, shifted to now.
+        const double stamp = utc0 + t;
+        plus->publishTools(tools, stamp);
+        if (has_images && f.hasPixels()) {
+          frame.pixels = f.pixels;
+          plus->publishImage(frame, stamp);
+        }
+        std::lock_guard lock(truth_mutex);
+        ++stats.replayed_frames;
+      }
+      offset += span / speed + 1.0 / 30.0;
+    } while (scenario.replay->loop && running.load());
+    finished = true;
+  }
+};
+
+OperatingRoom::OperatingRoom(Scenario scenario) : impl_(std::make_unique<Impl>()) {
+  impl_->scenario = std::move(scenario);
+  const Scenario& s = impl_->scenario;
+  impl_->world = std::make_unique<World>(s);
+  if (s.replay) {
+    io::SequenceReadOptions options;
+    impl_->replay = io::readSequence(s.replay->sequence, options);
+    const auto& seq = *impl_->replay;
+    if (seq.frames.empty()) throw FormatError(s.replay->sequence.string() + " has no frames to replay");
+    if (!seq.frames.front().hasPixels()) {
+      // A tracker buffer: transforms only, which is fine.
+    } else if (seq.pixel_format.scalar != PixelType::UInt8 || seq.pixel_format.components != 1 ||
+               seq.geometry.size[2] != 1) {
+      throw UnsupportedError(s.replay->sequence.string() +
+                             ": only 8-bit single-component 2D frames can be served as B-mode IMAGE messages");
+    }
+    for (std::size_t i = 1; i < seq.frames.size(); ++i) {
+      if (seq.frames[i].timestamp < seq.frames[i - 1].timestamp) {
+        throw FormatError(s.replay->sequence.string() + ": frame " + std::to_string(i) +
+                          " has an earlier timestamp than the one before; the recording cannot be replayed in order");
+      }
+    }
+  }
+  if (s.robot.enabled && s.patient) {
+    // The arm must reach the patient from where the scenario puts its base.
+    const Eigen::Vector3d ct_in_base = s.robot.tracker_T_base.inverse() * impl_->world->trackerTCt(0.0).translation();
+    if (ct_in_base.norm() > kUr5ReachMm) {
+      throw InvalidArgumentError("the robot base is " + std::to_string(static_cast<int>(ct_in_base.norm())) +
+                                 " mm from the patient, beyond the UR5's 850 mm reach: move robot.base_to_tracker "
+                                 "closer to the patient");
+    }
+  }
+}
+
+OperatingRoom::~OperatingRoom() {
+  stop();
+}
+
+void OperatingRoom::start() {
+  if (impl_->running) return;
+  const Scenario& s = impl_->scenario;
+  PlusServerOptions plus_options;
+  plus_options.bind_address = s.tracker.bind_address;
+  plus_options.port = s.tracker.port;
+  plus_options.max_header_version = s.tracker.max_header_version;
+  plus_options.send_valid_transforms_only = s.tracker.send_valid_transforms_only;
+  impl_->plus = std::make_unique<PlusServerEmulator>(plus_options);
+  impl_->plus->start();
+  if (s.robot.enabled) {
+    robot::UrSimulatorOptions ur;
+    ur.host = s.tracker.bind_address;
+    ur.rtde_port = s.robot.rtde_port;
+    ur.dashboard_port = s.robot.dashboard_port;
+    ur.secondary_port = s.robot.secondary_port;
+    ur.realtime_port = s.robot.realtime_port;
+    for (int i = 0; i < 6; ++i) ur.arm.q0[i] = s.robot.start_joints[static_cast<std::size_t>(i)];
+    try {
+      impl_->ur = std::make_unique<robot::UrSimulator>(ur);
+    } catch (...) {
+      impl_->plus->stop();
+      throw;
+    }
+  }
+  impl_->t0 = Clock::now();
+  impl_->utc0 = utcNow();
+  impl_->running = true;
+  if (impl_->replay) {
+    impl_->replay_thread = std::thread([this] { impl_->replayLoop(); });
+  } else {
+    impl_->tracker_thread = std::thread([this] { impl_->trackerLoop(); });
+    if (s.ultrasound.enabled) impl_->video_thread = std::thread([this] { impl_->videoLoop(); });
+  }
+}
+
+void OperatingRoom::stop() {
+  if (!impl_) return;
+  impl_->running = false;
+  for (auto* th : {&impl_->tracker_thread, &impl_->video_thread, &impl_->replay_thread}) {
+    if (th->joinable()) th->join();
+  }
+  if (impl_->ur) impl_->ur->stop();
+  if (impl_->plus) impl_->plus->stop();
+}
+
+bool OperatingRoom::finished() const {
+  return impl_->finished.load();
+}
+
+OperatingRoomEndpoints OperatingRoom::endpoints() const {
+  OperatingRoomEndpoints e;
+  e.host = impl_->scenario.tracker.bind_address;
+  if (impl_->plus) e.plus_port = impl_->plus->port();
+  if (impl_->ur) {
+    e.robot = true;
+    e.rtde_port = impl_->ur->rtdePort();
+    e.dashboard_port = impl_->ur->dashboardPort();
+    e.secondary_port = impl_->ur->secondaryPort();
+    e.realtime_port = impl_->ur->realtimePort();
+  }
+  return e;
+}
+
+OperatingRoomStats OperatingRoom::stats() const {
+  OperatingRoomStats s;
+  {
+    std::lock_guard lock(impl_->truth_mutex);
+    s = impl_->stats;
+  }
+  if (impl_->running || impl_->t0 != Clock::time_point{}) s.elapsed_s = impl_->elapsed();
+  if (impl_->plus) {
+    const auto p = impl_->plus->stats();
+    s.transform_messages = p.transform_messages;
+    s.tdata_messages = p.tdata_messages;
+    s.image_messages = p.image_messages;
+    s.clients_connected = p.clients_connected;
+  }
+  return s;
+}
+
+void OperatingRoom::writeTruth(const std::filesystem::path& path) const {
+  using Json = nlohmann::json;
+  Json j;
+  j["format"] = "mrsns-truth/1";
+  j["note"] = "Written by mrsns-sim for mrsns-sim score only: the workstation must never read it.";
+  j["static"] = Json::parse(impl_->world->staticTruthJson());
+  j["utc_start"] = impl_->utc0;
+  {
+    std::lock_guard lock(impl_->truth_mutex);
+    j["tools"] = impl_->tool_names;
+    j["pose_layout"] = "[x_mm, y_mm, z_mm, qw, qx, qy, qz] in the tracker frame";
+    j["visibility_codes"] = {toString(Visibility::Visible), toString(Visibility::OutOfVolume),
+                             toString(Visibility::LineOfSightBlocked), toString(Visibility::OccludedByFault)};
+    Json samples = Json::array();
+    for (const auto& r : impl_->tracker_truth) {
+      Json poses = Json::array(), vis = Json::array();
+      for (const auto& tool : r.tools) {
+        poses.push_back(tool.pose);
+        vis.push_back(tool.visibility);
+      }
+      samples.push_back({{"t", r.t}, {"utc", r.utc}, {"poses", poses}, {"visibility", vis}});
+    }
+    j["tracker_samples"] = samples;
+    Json frames = Json::array();
+    for (const auto& f : impl_->frame_truth) {
+      frames.push_back(
+          {{"utc", f.utc}, {"content_t", f.content_t}, {"tracker_T_image", f.tracker_T_image}, {"frozen", f.frozen}});
+    }
+    j["video_frames"] = frames;
+    Json events = Json::array();
+    for (const auto& e : impl_->events) events.push_back({{"t", e.t}, {"utc", e.utc}, {"event", e.what}});
+    j["events"] = events;
+  }
+  const auto tmp = path.string() + ".tmp";
+  {
+    std::ofstream out(tmp, std::ios::trunc);
+    if (!out) throw FileError("cannot write the truth file " + path.string() + " (is its folder writable?)");
+    out << j.dump() << "\n";
+    if (!out) throw FileError("writing the truth file " + path.string() + " failed (disk full?)");
+  }
+  std::filesystem::rename(tmp, path);
+}
+
+}  // namespace mrsns::simulation

@@ -1,0 +1,545 @@
+// Scenario JSON -> Scenario, strictly: every object's keys are checked
+// against the keys its reader knows, and errors name the key path.
+#include "mrsns/simulation/scenario.h"
+
+#include <cmath>
+#include <fstream>
+#include <initializer_list>
+#include <nlohmann/json.hpp>
+#include <set>
+#include <sstream>
+
+#include "mrsns/core/data_dir.h"
+#include "mrsns/core/error.h"
+#include "mrsns/core/rigid.h"
+
+namespace mrsns::simulation {
+
+namespace {
+
+using Json = nlohmann::json;
+constexpr double kDeg = M_PI / 180.0;
+
+// One JSON object being read: remembers its key path for messages and refuses
+// keys that no reader asked for.
+class Node {
+ public:
+  Node(const Json& json, std::string path, std::string source)
+      : json_(json), path_(std::move(path)), source_(std::move(source)) {
+    if (!json_.is_object()) fail("must be an object");
+  }
+
+  void allow(std::initializer_list<const char*> keys) const {
+    std::set<std::string> known(keys.begin(), keys.end());
+    for (const auto& [key, value] : json_.items()) {
+      if (!known.count(key)) {
+        std::string list;
+        for (const auto& k : known) list += (list.empty() ? "" : ", ") + k;
+        throw FormatError(source_ + ": unknown key '" + at(key) + "' (known here: " + list + ")");
+      }
+    }
+  }
+
+  [[nodiscard]] bool has(const char* key) const { return json_.contains(key); }
+  [[nodiscard]] std::string at(const std::string& key) const { return path_.empty() ? key : path_ + "." + key; }
+
+  [[noreturn]] void fail(const std::string& what) const {
+    throw FormatError(source_ + ": " + (path_.empty() ? "the scenario" : "'" + path_ + "'") + " " + what);
+  }
+  [[noreturn]] void failKey(const std::string& key, const std::string& what) const {
+    throw FormatError(source_ + ": '" + at(key) + "' " + what);
+  }
+
+  Node child(const char* key) const { return Node(json_.at(key), at(key), source_); }
+  std::vector<Node> array(const char* key) const {
+    std::vector<Node> out;
+    if (!has(key)) return out;
+    const auto& a = json_.at(key);
+    if (!a.is_array()) failKey(key, "must be an array");
+    for (std::size_t i = 0; i < a.size(); ++i) out.emplace_back(a[i], at(key) + "[" + std::to_string(i) + "]", source_);
+    return out;
+  }
+
+  double number(const char* key, double fallback, double lo = -INFINITY, double hi = INFINITY) const {
+    if (!has(key)) return fallback;
+    const auto& v = json_.at(key);
+    if (!v.is_number()) failKey(key, "must be a number");
+    const double x = v.get<double>();
+    if (!std::isfinite(x) || x < lo || x > hi) {
+      std::ostringstream s;
+      s << "is " << x << ", outside [" << lo << ", " << hi << "]";
+      failKey(key, s.str());
+    }
+    return x;
+  }
+  int integer(const char* key, int fallback, int lo, int hi) const {
+    if (!has(key)) return fallback;
+    const auto& v = json_.at(key);
+    if (!v.is_number_integer()) failKey(key, "must be an integer");
+    const auto x = v.get<long long>();
+    if (x < lo || x > hi)
+      failKey(key, "is " + std::to_string(x) + ", outside [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
+    return static_cast<int>(x);
+  }
+  bool boolean(const char* key, bool fallback) const {
+    if (!has(key)) return fallback;
+    if (!json_.at(key).is_boolean()) failKey(key, "must be true or false");
+    return json_.at(key).get<bool>();
+  }
+  std::string text(const char* key, const std::string& fallback) const {
+    if (!has(key)) return fallback;
+    if (!json_.at(key).is_string()) failKey(key, "must be a string");
+    return json_.at(key).get<std::string>();
+  }
+  std::string required(const char* key) const {
+    if (!has(key)) fail("needs '" + std::string(key) + "'");
+    return text(key, "");
+  }
+  Eigen::Vector3d vector3(const char* key, const Eigen::Vector3d& fallback) const {
+    if (!has(key)) return fallback;
+    const auto& v = json_.at(key);
+    if (!v.is_array() || v.size() != 3) failKey(key, "must be an array of 3 numbers");
+    Eigen::Vector3d out;
+    for (int i = 0; i < 3; ++i) {
+      if (!v[static_cast<std::size_t>(i)].is_number()) failKey(key, "must be an array of 3 numbers");
+      out[i] = v[static_cast<std::size_t>(i)].get<double>();
+    }
+    if (!out.allFinite()) failKey(key, "must be finite");
+    return out;
+  }
+  std::vector<int> integers(const char* key) const {
+    std::vector<int> out;
+    if (!has(key)) return out;
+    const auto& v = json_.at(key);
+    if (!v.is_array()) failKey(key, "must be an array of integers");
+    for (const auto& x : v) {
+      if (!x.is_number_integer()) failKey(key, "must be an array of integers");
+      out.push_back(x.get<int>());
+    }
+    return out;
+  }
+  /// A pose: {"translation_mm": [x,y,z], "rotation_deg": [rx,ry,rz]} (rotation vector, degrees) or
+  /// {"matrix": [16 numbers, row-major]}.
+  Eigen::Isometry3d pose(const char* key, const Eigen::Isometry3d& fallback) const {
+    if (!has(key)) return fallback;
+    const Node p = child(key);
+    p.allow({"translation_mm", "rotation_deg", "matrix"});
+    if (p.has("matrix")) {
+      if (p.has("translation_mm") || p.has("rotation_deg")) p.fail("gives both a matrix and translation/rotation");
+      const auto& m = p.json_.at("matrix");
+      if (!m.is_array() || m.size() != 16) p.failKey("matrix", "must be 16 numbers (row-major 4x4)");
+      std::array<double, 16> values{};
+      for (std::size_t i = 0; i < 16; ++i) {
+        if (!m[i].is_number()) p.failKey("matrix", "must be 16 numbers (row-major 4x4)");
+        values[i] = m[i].get<double>();
+      }
+      try {
+        return isometryFromRowMajor(values, 1e-4);
+      } catch (const Error& e) {
+        p.failKey("matrix", std::string("is not a rigid transform: ") + e.what());
+      }
+    }
+    Eigen::Isometry3d out = Eigen::Isometry3d::Identity();
+    out.translation() = p.vector3("translation_mm", Eigen::Vector3d::Zero());
+    out.linear() = so3Exp(p.vector3("rotation_deg", Eigen::Vector3d::Zero()) * kDeg);
+    return out;
+  }
+
+  [[nodiscard]] const Json& json() const { return json_; }
+
+ private:
+  const Json& json_;
+  std::string path_;
+  std::string source_;
+};
+
+template <typename E>
+E choose(const Node& n, const char* key, E fallback, std::initializer_list<std::pair<const char*, E>> options) {
+  if (!n.has(key)) return fallback;
+  const std::string value = n.text(key, "");
+  std::string list;
+  for (const auto& [name, e] : options) {
+    if (value == name) return e;
+    list += (list.empty() ? "" : ", ") + std::string(name);
+  }
+  n.failKey(key, "is '" + value + "'; use one of " + list);
+}
+
+PoseFrame poseFrame(const Node& n, const char* key) {
+  return choose<PoseFrame>(n, key, PoseFrame::Tracker,
+                           {{"Tracker", PoseFrame::Tracker},
+                            {"Reference", PoseFrame::Reference},
+                            {"Phantom", PoseFrame::Phantom},
+                            {"CT", PoseFrame::CT},
+                            {"RobotBase", PoseFrame::RobotBase}});
+}
+
+std::filesystem::path filePath(const Node& n, const char* key, const std::filesystem::path& base) {
+  const std::string text = n.required(key);
+  std::filesystem::path p = text;
+  if (text.rfind("data:", 0) == 0) {
+    p = dataDirectory() / text.substr(5);
+  } else if (p.is_relative()) {
+    p = base / p;
+  }
+  if (!std::filesystem::exists(p)) {
+    throw FileError("'" + n.at(key) + "': " + p.string() + " does not exist");
+  }
+  return p;
+}
+
+void checkToolName(const Node& n, const char* key, const std::string& name) {
+  const auto to = name.find("To");
+  if (name.empty() || to == std::string::npos || to == 0 || to + 2 >= name.size() || name.size() > 20) {
+    n.failKey(key, "'" + name + "' is not a PLUS transform name of at most 20 characters (e.g. StylusToTracker)");
+  }
+}
+
+MotionSegment readSegment(const Node& n) {
+  MotionSegment s;
+  s.kind = choose<MotionKind>(n, "kind", MotionKind::Hold,
+                              {{"hold", MotionKind::Hold},
+                               {"move", MotionKind::Move},
+                               {"sweep", MotionKind::Sweep},
+                               {"pivot", MotionKind::Pivot},
+                               {"up_down", MotionKind::UpDown}});
+  if (!n.has("kind")) n.fail("needs 'kind' (hold, move, sweep, pivot, up_down)");
+  s.duration_s = n.number("duration_s", 1.0, 1e-3, 86400.0);
+  switch (s.kind) {
+    case MotionKind::Hold: n.allow({"kind", "duration_s", "pose", "frame", "pose_of"}); break;
+    case MotionKind::Move:
+      n.allow({"kind", "duration_s", "pose", "frame", "pose_of"});
+      if (!n.has("pose")) n.fail("(move) needs 'pose'");
+      break;
+    case MotionKind::Sweep:
+      n.allow({"kind", "duration_s", "pose", "frame", "pose_of", "cycles"});
+      if (!n.has("pose")) n.fail("(sweep) needs 'pose', the far end");
+      s.cycles = n.integer("cycles", 1, 1, 10000);
+      break;
+    case MotionKind::Pivot:
+      n.allow({"kind", "duration_s", "tip_mm", "amplitude_deg", "frequency_hz", "one_axis"});
+      if (n.has("tip_mm")) s.tip_tool = n.vector3("tip_mm", Eigen::Vector3d::Zero());
+      s.amplitude_deg = n.number("amplitude_deg", s.amplitude_deg, 0.0, 80.0);
+      s.frequency_hz = n.number("frequency_hz", s.frequency_hz, 1e-3, 5.0);
+      s.one_axis = n.boolean("one_axis", false);
+      break;
+    case MotionKind::UpDown:
+      n.allow({"kind", "duration_s", "amplitude_mm", "frequency_hz", "axis"});
+      s.amplitude_mm = n.number("amplitude_mm", s.amplitude_mm, 0.0, 200.0);
+      s.frequency_hz = n.number("frequency_hz", 0.5, 1e-3, 10.0);
+      s.axis_tool = n.vector3("axis", s.axis_tool);
+      if (s.axis_tool.norm() < 1e-9) n.failKey("axis", "must not be zero");
+      s.axis_tool.normalize();
+      break;
+  }
+  if (n.has("pose")) s.pose = n.pose("pose", Eigen::Isometry3d::Identity());
+  s.frame = poseFrame(n, "frame");
+  s.pose_of = choose<PoseOf>(n, "pose_of", PoseOf::Tool, {{"tool", PoseOf::Tool}, {"image", PoseOf::Image}});
+  return s;
+}
+
+HandModel readHand(const Node& n) {
+  n.allow(
+      {"tremor_rms_mm", "tremor_hz", "tremor_rotation_rms_deg", "drift_mm", "drift_hz", "slips_per_min", "slip_mm"});
+  HandModel h;
+  h.tremor_rms_mm = n.number("tremor_rms_mm", 0.0, 0.0, 20.0);
+  if (n.has("tremor_hz")) {
+    const auto& v = n.json().at("tremor_hz");
+    if (!v.is_array() || v.size() != 2 || !v[0].is_number() || !v[1].is_number()) {
+      n.failKey("tremor_hz", "must be [min, max] in Hz");
+    }
+    h.tremor_min_hz = v[0].get<double>();
+    h.tremor_max_hz = v[1].get<double>();
+    if (!(h.tremor_min_hz > 0.0 && h.tremor_max_hz >= h.tremor_min_hz && h.tremor_max_hz < 100.0)) {
+      n.failKey("tremor_hz", "must be 0 < min <= max < 100");
+    }
+  }
+  h.tremor_rotation_rms_deg = n.number("tremor_rotation_rms_deg", 0.0, 0.0, 10.0);
+  h.drift_mm = n.number("drift_mm", 0.0, 0.0, 100.0);
+  h.drift_hz = n.number("drift_hz", h.drift_hz, 1e-4, 5.0);
+  h.slips_per_min = n.number("slips_per_min", 0.0, 0.0, 600.0);
+  h.slip_mm = n.number("slip_mm", h.slip_mm, 0.0, 100.0);
+  return h;
+}
+
+ToolSpec readTool(const Node& n) {
+  n.allow({"name", "marker_radius_mm", "start", "start_frame", "motion", "hand", "tip_mm"});
+  ToolSpec t;
+  t.name = n.required("name");
+  checkToolName(n, "name", t.name);
+  t.marker_radius_mm = n.number("marker_radius_mm", t.marker_radius_mm, 1.0, 500.0);
+  t.start = n.pose("start", t.start);
+  t.start_frame = poseFrame(n, "start_frame");
+  for (const auto& s : n.array("motion")) t.motion.push_back(readSegment(s));
+  if (n.has("hand")) t.hand = readHand(n.child("hand"));
+  if (n.has("tip_mm")) t.tip_tool = n.vector3("tip_mm", Eigen::Vector3d::Zero());
+  for (const auto& seg : t.motion) {
+    if (seg.kind == MotionKind::Pivot && !seg.tip_tool && !t.tip_tool) {
+      n.fail("pivots without a tip: give the tool's 'tip_mm' or the pivot segment's 'tip_mm'");
+    }
+  }
+  return t;
+}
+
+TrackerSpec readTracker(const Node& n) {
+  n.allow(
+      {"bind", "port", "rate_hz", "max_header_version", "send_valid_transforms_only", "noise", "volume", "occluders"});
+  TrackerSpec t;
+  t.bind_address = n.text("bind", t.bind_address);
+  t.port = static_cast<std::uint16_t>(n.integer("port", t.port, 0, 65535));
+  t.rate_hz = n.number("rate_hz", t.rate_hz, 1.0, 1000.0);
+  t.max_header_version = n.integer("max_header_version", t.max_header_version, 1, 2);
+  t.send_valid_transforms_only = n.boolean("send_valid_transforms_only", t.send_valid_transforms_only);
+  if (n.has("noise")) {
+    const Node noise = n.child("noise");
+    noise.allow({"position_rms_mm", "orientation_rms_deg"});
+    t.noise.position_rms_mm = noise.number("position_rms_mm", t.noise.position_rms_mm, 0.0, 50.0);
+    t.noise.orientation_rms_deg = noise.number("orientation_rms_deg", t.noise.orientation_rms_deg, 0.0, 10.0);
+  }
+  if (n.has("volume")) {
+    const Node v = n.child("volume");
+    v.allow({"near_mm", "far_mm", "half_angle_x_deg", "half_angle_y_deg"});
+    t.volume.near_mm = v.number("near_mm", t.volume.near_mm, 0.0, 1e5);
+    t.volume.far_mm = v.number("far_mm", t.volume.far_mm, t.volume.near_mm, 1e5);
+    t.volume.half_angle_x_deg = v.number("half_angle_x_deg", t.volume.half_angle_x_deg, 1.0, 89.0);
+    t.volume.half_angle_y_deg = v.number("half_angle_y_deg", t.volume.half_angle_y_deg, 1.0, 89.0);
+  }
+  for (const auto& o : n.array("occluders")) {
+    o.allow({"center_mm", "radius_mm", "attached_to"});
+    Occluder occ;
+    occ.center = o.vector3("center_mm", occ.center);
+    occ.radius_mm = o.number("radius_mm", occ.radius_mm, 1.0, 2000.0);
+    occ.attached_to = o.text("attached_to", "");
+    t.occluders.push_back(occ);
+  }
+  return t;
+}
+
+UltrasoundSpec readUltrasound(const Node& n) {
+  n.allow({"enabled", "rate_hz", "width", "height", "spacing_mm", "probe_tool", "image_to_probe", "video_lag_s",
+           "device_name", "attenuation_db_per_cm", "speckle"});
+  UltrasoundSpec u;
+  u.enabled = n.boolean("enabled", true);
+  u.rate_hz = n.number("rate_hz", u.rate_hz, 1.0, 120.0);
+  u.width = n.integer("width", u.width, 16, 2048);
+  u.height = n.integer("height", u.height, 16, 2048);
+  if (n.has("spacing_mm")) {
+    const auto& v = n.json().at("spacing_mm");
+    if (!v.is_array() || v.size() != 2 || !v[0].is_number() || !v[1].is_number() || v[0].get<double>() <= 0.0 ||
+        v[1].get<double>() <= 0.0) {
+      n.failKey("spacing_mm", "must be [x, y], both positive");
+    }
+    u.spacing_x_mm = v[0].get<double>();
+    u.spacing_y_mm = v[1].get<double>();
+  }
+  u.probe_tool = n.text("probe_tool", u.probe_tool);
+  checkToolName(n, "probe_tool", u.probe_tool);
+  u.probe_T_image = n.pose("image_to_probe", u.probe_T_image);
+  u.video_lag_s = n.number("video_lag_s", 0.0, -2.0, 2.0);
+  u.device_name = n.text("device_name", u.device_name);
+  if (u.device_name.empty() || u.device_name.size() > 20) n.failKey("device_name", "must be 1-20 characters");
+  u.attenuation_db_per_cm = n.number("attenuation_db_per_cm", u.attenuation_db_per_cm, 0.0, 20.0);
+  u.speckle = n.number("speckle", u.speckle, 0.0, 1.0);
+  return u;
+}
+
+RobotSpec readRobot(const Node& n) {
+  n.allow(
+      {"enabled", "ports", "base_to_tracker", "marker_to_flange", "drill_tip_mm", "marker_tool", "start_joints_deg"});
+  RobotSpec r;
+  r.enabled = n.boolean("enabled", true);
+  if (n.has("ports")) {
+    const Node p = n.child("ports");
+    p.allow({"rtde", "dashboard", "secondary", "realtime"});
+    r.rtde_port = static_cast<std::uint16_t>(p.integer("rtde", r.rtde_port, 0, 65535));
+    r.dashboard_port = static_cast<std::uint16_t>(p.integer("dashboard", r.dashboard_port, 0, 65535));
+    r.secondary_port = static_cast<std::uint16_t>(p.integer("secondary", r.secondary_port, 0, 65535));
+    r.realtime_port = static_cast<std::uint16_t>(p.integer("realtime", r.realtime_port, 0, 65535));
+  }
+  r.tracker_T_base = n.pose("base_to_tracker", r.tracker_T_base);
+  r.flange_T_marker = n.pose("marker_to_flange", r.flange_T_marker);
+  r.drill_tip_flange = n.vector3("drill_tip_mm", r.drill_tip_flange);
+  r.marker_tool = n.text("marker_tool", r.marker_tool);
+  checkToolName(n, "marker_tool", r.marker_tool);
+  if (n.has("start_joints_deg")) {
+    const auto& v = n.json().at("start_joints_deg");
+    if (!v.is_array() || v.size() != 6) n.failKey("start_joints_deg", "must be 6 numbers");
+    for (std::size_t i = 0; i < 6; ++i) {
+      if (!v[i].is_number()) n.failKey("start_joints_deg", "must be 6 numbers");
+      r.start_joints[i] = v[i].get<double>() * kDeg;
+    }
+  }
+  return r;
+}
+
+Fault readFault(const Node& n) {
+  Fault f;
+  if (!n.has("kind")) n.fail("needs 'kind'");
+  f.kind = choose<FaultKind>(n, "kind", FaultKind::Occlusion,
+                             {{"occlusion", FaultKind::Occlusion},
+                              {"tracker_disconnect", FaultKind::TrackerDisconnect},
+                              {"patient_shift", FaultKind::PatientShift},
+                              {"video_freeze", FaultKind::VideoFreeze},
+                              {"robot_protective_stop", FaultKind::RobotProtectiveStop}});
+  f.at_s = n.number("at_s", 0.0, 0.0, 86400.0);
+  switch (f.kind) {
+    case FaultKind::Occlusion:
+      n.allow({"kind", "at_s", "duration_s", "tool"});
+      f.tool = n.required("tool");
+      f.duration_s = n.number("duration_s", 1.0, 0.0, 86400.0);
+      break;
+    case FaultKind::TrackerDisconnect:
+    case FaultKind::VideoFreeze:
+      n.allow({"kind", "at_s", "duration_s"});
+      f.duration_s = n.number("duration_s", 1.0, 0.0, 86400.0);
+      break;
+    case FaultKind::PatientShift:
+      n.allow({"kind", "at_s", "shift", "relative_to_reference"});
+      if (!n.has("shift")) n.fail("(patient_shift) needs 'shift' (a pose)");
+      f.shift = n.pose("shift", f.shift);
+      f.relative_to_reference = n.boolean("relative_to_reference", false);
+      break;
+    case FaultKind::RobotProtectiveStop: n.allow({"kind", "at_s"}); break;
+  }
+  return f;
+}
+
+}  // namespace
+
+Scenario parseScenario(const std::string& json_text, const std::filesystem::path& base_dir, const std::string& source) {
+  Json json;
+  try {
+    json = Json::parse(json_text);
+  } catch (const Json::parse_error& e) {
+    throw FormatError(source + ": not valid JSON (" + e.what() + ")");
+  }
+  const Node root(json, "", source);
+  root.allow({"format", "name", "description", "seed", "duration_s", "tracker", "tools", "nwire_phantom", "patient",
+              "ultrasound", "robot", "faults", "replay"});
+  const std::string format = root.required("format");
+  if (format != "mrsns-scenario/1") {
+    root.failKey("format", "is '" + format + "'; this mrsns-sim reads 'mrsns-scenario/1'");
+  }
+  Scenario s;
+  s.source = source;
+  s.name = root.text("name", s.name);
+  (void)root.text("description", "");
+  s.seed = static_cast<std::uint64_t>(root.integer("seed", 1, 0, 2147483647));
+  s.duration_s = root.number("duration_s", 0.0, 0.0, 86400.0);
+  if (root.has("tracker")) s.tracker = readTracker(root.child("tracker"));
+  std::set<std::string> names;
+  for (const auto& t : root.array("tools")) {
+    s.tools.push_back(readTool(t));
+    if (!names.insert(s.tools.back().name).second) t.failKey("name", "'" + s.tools.back().name + "' is used twice");
+  }
+  if (root.has("nwire_phantom")) {
+    const Node n = root.child("nwire_phantom");
+    n.allow({"config", "reference_tool", "phantom_to_reference", "wire_radius_mm", "bath_margin_mm"});
+    NWirePhantomSpec p;
+    p.config = filePath(n, "config", base_dir);
+    p.reference_tool = n.text("reference_tool", p.reference_tool);
+    checkToolName(n, "reference_tool", p.reference_tool);
+    p.reference_T_phantom = n.pose("phantom_to_reference", p.reference_T_phantom);
+    p.wire_radius_mm = n.number("wire_radius_mm", p.wire_radius_mm, 0.01, 5.0);
+    p.bath_margin_mm = n.number("bath_margin_mm", p.bath_margin_mm, 0.0, 500.0);
+    s.nwire_phantom = p;
+  }
+  if (root.has("patient")) {
+    const Node n = root.child("patient");
+    n.allow({"generated_phantom", "labels", "vessel_labels", "ignored_labels", "reference_tool", "ct_to_reference"});
+    PatientSpec p;
+    if (n.has("labels") == n.has("generated_phantom")) {
+      n.fail("needs exactly one of 'generated_phantom' ({\"spacing_mm\": 0.8}) or 'labels' (a label map file)");
+    }
+    if (n.has("generated_phantom")) {
+      const Node g = n.child("generated_phantom");
+      g.allow({"spacing_mm"});
+      p.generated = true;
+      p.phantom_spacing_mm = g.number("spacing_mm", p.phantom_spacing_mm, 0.2, 3.0);
+    } else {
+      p.generated = false;
+      p.labels = filePath(n, "labels", base_dir);
+      p.vessel_labels = n.integers("vessel_labels");
+      p.ignored_labels = n.integers("ignored_labels");
+    }
+    p.reference_tool = n.text("reference_tool", p.reference_tool);
+    checkToolName(n, "reference_tool", p.reference_tool);
+    p.reference_T_ct = n.pose("ct_to_reference", p.reference_T_ct);
+    s.patient = p;
+  }
+  if (root.has("ultrasound")) s.ultrasound = readUltrasound(root.child("ultrasound"));
+  if (root.has("robot")) s.robot = readRobot(root.child("robot"));
+  for (const auto& f : root.array("faults")) {
+    s.faults.push_back(readFault(f));
+    if (s.faults.back().kind == FaultKind::Occlusion && !names.count(s.faults.back().tool)) {
+      f.failKey("tool", "'" + s.faults.back().tool + "' is not one of the scenario's tools");
+    }
+  }
+  if (root.has("replay")) {
+    const Node n = root.child("replay");
+    n.allow({"sequence", "speed", "loop"});
+    ReplaySpec r;
+    r.sequence = filePath(n, "sequence", base_dir);
+    r.speed = n.number("speed", 1.0, 0.01, 100.0);
+    r.loop = n.boolean("loop", false);
+    s.replay = r;
+    if (!s.tools.empty() || s.ultrasound.enabled) {
+      root.fail("replays a recording: 'tools' and 'ultrasound' come from the recording and must be left out");
+    }
+  }
+
+  // Cross-checks: what a device needs must exist in the world.
+  const auto needTool = [&](const std::string& name, const std::string& who) {
+    if (!names.count(name)) {
+      throw FormatError(source + ": " + who + " needs the tool '" + name + "', which 'tools' does not list");
+    }
+  };
+  if (s.ultrasound.enabled) {
+    needTool(s.ultrasound.probe_tool, "'ultrasound'");
+    if (!s.nwire_phantom && !s.patient) {
+      throw FormatError(source + ": 'ultrasound' has nothing to image: add 'nwire_phantom' or 'patient'");
+    }
+  }
+  if (s.patient && !s.replay) needTool(s.patient->reference_tool, "'patient'");
+  if (s.nwire_phantom && !s.replay) needTool(s.nwire_phantom->reference_tool, "'nwire_phantom'");
+  if (s.robot.enabled && names.count(s.robot.marker_tool)) {
+    throw FormatError(source + ": '" + s.robot.marker_tool +
+                      "' is the robot's marker (robot.marker_tool): it moves with the arm, leave it out of 'tools'");
+  }
+  if (s.tools.empty() && !s.replay && !s.robot.enabled) {
+    throw FormatError(source + ": the scenario has no tools, no robot and no replay: nothing to serve");
+  }
+  return s;
+}
+
+Scenario readScenario(const std::filesystem::path& path) {
+  std::ifstream in(path);
+  if (!in) throw FileError("cannot read the scenario " + path.string() + " (does it exist?)");
+  std::stringstream text;
+  text << in.rdbuf();
+  return parseScenario(text.str(), path.parent_path(), path.string());
+}
+
+const char* toString(FaultKind kind) {
+  switch (kind) {
+    case FaultKind::Occlusion: return "occlusion";
+    case FaultKind::TrackerDisconnect: return "tracker_disconnect";
+    case FaultKind::PatientShift: return "patient_shift";
+    case FaultKind::VideoFreeze: return "video_freeze";
+    case FaultKind::RobotProtectiveStop: return "robot_protective_stop";
+  }
+  return "?";
+}
+
+const char* toString(PoseFrame frame) {
+  switch (frame) {
+    case PoseFrame::Tracker: return "Tracker";
+    case PoseFrame::Reference: return "Reference";
+    case PoseFrame::Phantom: return "Phantom";
+    case PoseFrame::CT: return "CT";
+    case PoseFrame::RobotBase: return "RobotBase";
+  }
+  return "?";
+}
+
+}  // namespace mrsns::simulation

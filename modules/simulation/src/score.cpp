@@ -1,0 +1,163 @@
+// Session results against the truth file: one figure per result the truth
+// can judge, each with the definition of its error.
+#include "mrsns/simulation/score.h"
+
+#include <cmath>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "mrsns/core/error.h"
+#include "mrsns/core/rigid.h"
+
+namespace mrsns::simulation {
+
+namespace {
+
+using Json = nlohmann::json;
+
+Json readJson(const std::filesystem::path& path, const std::string& what) {
+  std::ifstream in(path);
+  if (!in) throw FileError("cannot read the " + what + " " + path.string());
+  try {
+    return Json::parse(in);
+  } catch (const Json::parse_error& e) {
+    throw FormatError(path.string() + " is not valid JSON (" + e.what() + ")");
+  }
+}
+
+// A 4x4 from either 16 numbers (row-major) or 4 rows of 4.
+Eigen::Matrix4d matrix(const Json& j, const std::string& what) {
+  Eigen::Matrix4d m;
+  if (j.is_array() && j.size() == 16) {
+    for (int i = 0; i < 16; ++i) m(i / 4, i % 4) = j[static_cast<std::size_t>(i)].get<double>();
+    return m;
+  }
+  if (j.is_array() && j.size() == 4) {
+    for (int r = 0; r < 4; ++r) {
+      for (int c = 0; c < 4; ++c) m(r, c) = j[static_cast<std::size_t>(r)][static_cast<std::size_t>(c)].get<double>();
+    }
+    return m;
+  }
+  throw FormatError(what + " is not a 4x4 matrix");
+}
+
+Json stats(const std::vector<double>& v) {
+  double sum = 0.0, worst = 0.0;
+  for (double x : v) {
+    sum += x;
+    worst = std::max(worst, x);
+  }
+  return {{"mean_mm", v.empty() ? 0.0 : sum / static_cast<double>(v.size())}, {"max_mm", worst}, {"points", v.size()}};
+}
+
+const Json* recordedTransform(const Json& session, const std::string& step, const std::string& name) {
+  if (!session.contains("steps") || !session["steps"].contains(step)) return nullptr;
+  const Json& s = session["steps"][step];
+  if (s.value("status", "") != "ok" || !s.contains("figures") || !s["figures"].contains("transforms") ||
+      !s["figures"]["transforms"].contains(name)) {
+    return nullptr;
+  }
+  return &s["figures"]["transforms"][name];
+}
+
+}  // namespace
+
+std::string scoreSession(const std::filesystem::path& session_dir, const std::filesystem::path& truth_file) {
+  const Json session = readJson(session_dir / "session.json", "session");
+  const Json truth = readJson(truth_file, "truth file");
+  if (truth.value("format", "") != "mrsns-truth/1") {
+    throw FormatError(truth_file.string() + " is not an mrsns-sim truth file (format mrsns-truth/1)");
+  }
+  const Json& st = truth.at("static");
+  Json out;
+  out["scenario"] = st.value("scenario", "");
+  out["seed"] = st.value("seed", 0);
+  Json scored = Json::object();
+  Json not_scored = Json::array();
+
+  if (const Json* est = recordedTransform(session, "us-spatial-calibration", "ImageToProbe")) {
+    if (st.contains("ImageToProbe")) {
+      // The session's ImageToProbe maps pixels to probe mm (PLUS convention, spacing included); the truth maps
+      // image mm to probe mm. Error: distance between where each maps the image's corners and centre.
+      const Eigen::Matrix4d probe_T_pixel = matrix(*est, "session ImageToProbe");
+      Eigen::Matrix4d truth_probe_T_pixel = matrix(st["ImageToProbe"], "truth ImageToProbe");
+      const double sx = st["image_spacing_mm"][0].get<double>(), sy = st["image_spacing_mm"][1].get<double>();
+      truth_probe_T_pixel.block<3, 1>(0, 0) *= sx;
+      truth_probe_T_pixel.block<3, 1>(0, 1) *= sy;
+      const double w = st["image_size_px"][0].get<double>() - 1.0, h = st["image_size_px"][1].get<double>() - 1.0;
+      std::vector<double> errors;
+      for (const auto& [u, v] : {std::pair{0.0, 0.0}, {w, 0.0}, {0.0, h}, {w, h}, {w / 2, h / 2}}) {
+        const Eigen::Vector4d p(u, v, 0.0, 1.0);
+        errors.push_back(((probe_T_pixel - truth_probe_T_pixel) * p).head<3>().norm());
+      }
+      scored["us_spatial_calibration"] = {{"definition",
+                                           "distance between estimated and true ImageToProbe at the "
+                                           "image's four corners and centre"},
+                                          {"error", stats(errors)}};
+    }
+  } else {
+    not_scored.push_back("us-spatial-calibration (not run, failed, or without ImageToProbe)");
+  }
+
+  const Json& steps = session.contains("steps") ? session["steps"] : Json::object();
+  if (steps.contains("us-temporal-calibration") && steps["us-temporal-calibration"].value("status", "") == "ok" &&
+      st.contains("video_lag_s")) {
+    const double estimated_ms = steps["us-temporal-calibration"]["figures"].value("tracker_lag_ms", 0.0);
+    // A video that lags the tracking by L pairs each frame with the pose L earlier: a tracker lag of -L.
+    const double expected_ms = -st["video_lag_s"].get<double>() * 1e3;
+    scored["us_temporal_calibration"] = {{"definition",
+                                          "estimated tracker lag minus the true one (the video's lag, "
+                                          "negated)"},
+                                         {"estimated_ms", estimated_ms},
+                                         {"true_ms", expected_ms},
+                                         {"error_ms", estimated_ms - expected_ms}};
+  } else {
+    not_scored.push_back("us-temporal-calibration (not run or failed)");
+  }
+
+  if (const Json* est = recordedTransform(session, "registration", "CTToPatient")) {
+    if (st.contains("CTToReference")) {
+      const Eigen::Matrix4d e = matrix(*est, "session CTToPatient"), t = matrix(st["CTToReference"], "truth");
+      std::vector<double> errors;
+      if (st.contains("fiducials_ct")) {
+        for (const auto& f : st["fiducials_ct"]) {
+          const Eigen::Vector4d p(f["ct_mm"][0].get<double>(), f["ct_mm"][1].get<double>(), f["ct_mm"][2].get<double>(),
+                                  1.0);
+          errors.push_back(((e - t) * p).head<3>().norm());
+        }
+      }
+      if (errors.empty()) errors.push_back(((e - t) * Eigen::Vector4d(0, 0, 0, 1)).head<3>().norm());
+      scored["registration"] = {{"definition",
+                                 "target registration error at the true fiducial positions (CT "
+                                 "origin when the patient has none)"},
+                                {"error", stats(errors)}};
+    }
+  } else {
+    not_scored.push_back("registration (not run, failed, or without CTToPatient)");
+  }
+
+  if (const Json* est = recordedTransform(session, "robot-calibration", "RobotBaseToTracker")) {
+    if (st.contains("RobotBaseToTracker")) {
+      const Eigen::Isometry3d e(matrix(*est, "session RobotBaseToTracker"));
+      const Eigen::Isometry3d t(matrix(st["RobotBaseToTracker"], "truth RobotBaseToTracker"));
+      scored["robot_calibration"] = {
+          {"definition",
+           "RobotBaseToTracker: translation and rotation error, and the error of a point 500 mm "
+           "in front of the base"},
+          {"translation_error_mm", (e.translation() - t.translation()).norm()},
+          {"rotation_error_deg", rotationAngleBetween(e.linear(), t.linear()) * 180.0 / M_PI},
+          {"error_500mm_mm", ((e * Eigen::Vector3d(0, 0, 500) - t * Eigen::Vector3d(0, 0, 500))).norm()}};
+    }
+  } else {
+    not_scored.push_back("robot-calibration (not run, failed, or without RobotBaseToTracker)");
+  }
+
+  out["scored"] = scored;
+  out["not_scored"] = not_scored;
+  Json events = truth.value("events", Json::array());
+  out["faults_in_truth"] = events.size();
+  return out.dump();
+}
+
+}  // namespace mrsns::simulation

@@ -1,0 +1,432 @@
+// The simulated world's truth: tool timelines with the operator's hand, the
+// patient (and its faults), visibility from the camera, the echo scene.
+#include "mrsns/simulation/world.h"
+
+#include <algorithm>
+#include <cmath>
+#include <nlohmann/json.hpp>
+
+#include "mrsns/core/error.h"
+#include "mrsns/core/rigid.h"
+#include "mrsns/io/device_set.h"
+#include "mrsns/io/image_io.h"
+#include "mrsns/registration/phantom_cervical.h"
+
+namespace mrsns::simulation {
+
+namespace {
+
+constexpr double kDeg = M_PI / 180.0;
+constexpr double kTwoPi = 2.0 * M_PI;
+
+// Minimum-jerk profile: how a hand moves between two poses (zero speed and
+// acceleration at both ends).
+double minimumJerk(double s) {
+  s = std::clamp(s, 0.0, 1.0);
+  return s * s * s * (10.0 - 15.0 * s + 6.0 * s * s);
+}
+
+nlohmann::json poseJson(const Eigen::Isometry3d& a_T_b) {
+  nlohmann::json m = nlohmann::json::array();
+  for (int r = 0; r < 4; ++r) {
+    for (int c = 0; c < 4; ++c) m.push_back(a_T_b.matrix()(r, c));
+  }
+  return m;
+}
+
+}  // namespace
+
+const char* toString(Visibility v) {
+  switch (v) {
+    case Visibility::Visible: return "visible";
+    case Visibility::OutOfVolume: return "out_of_volume";
+    case Visibility::LineOfSightBlocked: return "line_of_sight_blocked";
+    case Visibility::OccludedByFault: return "occluded_by_fault";
+  }
+  return "?";
+}
+
+// One tool's timeline: segment start times and the seeded hand.
+struct World::ToolTimeline {
+  std::vector<double> starts;  // start time of each segment
+  Eigen::Vector3d tremor_hz = Eigen::Vector3d::Zero();
+  Eigen::Vector3d tremor_phase = Eigen::Vector3d::Zero();
+  Eigen::Vector3d rot_tremor_phase = Eigen::Vector3d::Zero();
+  Eigen::Vector3d drift_direction = Eigen::Vector3d::UnitX();
+  double drift_phase = 0.0;
+  struct Slip {
+    double at_s;
+    Eigen::Vector3d offset;
+  };
+  std::vector<Slip> slips;
+};
+
+// The patient's geometry in its CT frame, for the echo scene.
+struct World::Patient {
+  std::optional<registration::CervicalPhantom> phantom;
+  ImageVolume labels;
+  Eigen::Matrix4d lps_to_ijk = Eigen::Matrix4d::Identity();
+  std::vector<int> vessel_labels, ignored_labels;
+
+  // Signed distance (mm) to the bone or the vessel: exact for the generated
+  // phantom; for a label map, +/- half a voxel from the label lookup (its sign
+  // is all the beam needs to find the surface).
+  [[nodiscard]] int labelAt(const Eigen::Vector3d& p_ct) const {
+    const Eigen::Vector4d ijk = lps_to_ijk * p_ct.homogeneous();
+    const int i = static_cast<int>(std::lround(ijk.x())), j = static_cast<int>(std::lround(ijk.y())),
+              k = static_cast<int>(std::lround(ijk.z()));
+    if (!labels.contains(i, j, k)) return 0;
+    return static_cast<int>(labels.value(i, j, k));
+  }
+  [[nodiscard]] bool isVessel(int label) const {
+    return std::find(vessel_labels.begin(), vessel_labels.end(), label) != vessel_labels.end();
+  }
+  [[nodiscard]] bool isIgnored(int label) const {
+    return std::find(ignored_labels.begin(), ignored_labels.end(), label) != ignored_labels.end();
+  }
+  [[nodiscard]] double boneDistance(const Eigen::Vector3d& p_ct) const {
+    if (phantom) return registration::phantomBoneDistance(*phantom, p_ct);
+    const int l = labelAt(p_ct);
+    const double half = 0.5 * labels.spacing.minCoeff();
+    return (l != 0 && !isVessel(l) && !isIgnored(l)) ? -half : half;
+  }
+  [[nodiscard]] double vesselDistance(const Eigen::Vector3d& p_ct) const {
+    if (phantom) {
+      // The phantom's vessel is a straight tube along the CT's z axis.
+      const Eigen::Vector2d d = (p_ct - phantom->vessel_center).head<2>();
+      return d.norm() - phantom->vessel_lumen_radius_mm;
+    }
+    const double half = 0.5 * labels.spacing.minCoeff();
+    return isVessel(labelAt(p_ct)) ? -half : half;
+  }
+};
+
+World::World(const Scenario& scenario) : scenario_(scenario) {
+  std::mt19937_64 rng(scenario_.seed * 7919ULL + 17ULL);
+  std::uniform_real_distribution<double> uniform(0.0, 1.0);
+  for (std::size_t i = 0; i < scenario_.tools.size(); ++i) {
+    const auto& tool = scenario_.tools[i];
+    auto tl = std::make_unique<ToolTimeline>();
+    double t = 0.0;
+    for (const auto& seg : tool.motion) {
+      tl->starts.push_back(t);
+      t += seg.duration_s;
+    }
+    const auto& h = tool.hand;
+    for (int a = 0; a < 3; ++a) {
+      tl->tremor_hz[a] = h.tremor_min_hz + (h.tremor_max_hz - h.tremor_min_hz) * uniform(rng);
+      tl->tremor_phase[a] = kTwoPi * uniform(rng);
+      tl->rot_tremor_phase[a] = kTwoPi * uniform(rng);
+    }
+    tl->drift_direction = Eigen::Vector3d(uniform(rng) - 0.5, uniform(rng) - 0.5, uniform(rng) - 0.5).normalized();
+    tl->drift_phase = kTwoPi * uniform(rng);
+    if (h.slips_per_min > 0.0) {
+      // Poisson events over the scenario (or two hours when it runs until stopped).
+      const double horizon = scenario_.duration_s > 0.0 ? scenario_.duration_s : 7200.0;
+      std::exponential_distribution<double> gap(h.slips_per_min / 60.0);
+      std::normal_distribution<double> normal(0.0, 1.0);
+      for (double at = gap(rng); at < horizon; at += gap(rng)) {
+        tl->slips.push_back({at, Eigen::Vector3d(normal(rng), normal(rng), normal(rng)).normalized() * h.slip_mm});
+      }
+    }
+    timelines_.push_back(std::move(tl));
+    if (scenario_.patient && tool.name == scenario_.patient->reference_tool) reference_index_ = i;
+    if (scenario_.nwire_phantom && tool.name == scenario_.nwire_phantom->reference_tool) phantom_reference_index_ = i;
+    if (scenario_.ultrasound.enabled && tool.name == scenario_.ultrasound.probe_tool) probe_index_ = i;
+  }
+
+  if (scenario_.patient) {
+    patient_ = std::make_unique<Patient>();
+    const auto& spec = *scenario_.patient;
+    if (spec.generated) {
+      registration::PhantomOptions options;
+      options.spacing_mm = spec.phantom_spacing_mm;
+      options.seed = scenario_.seed;
+      patient_->phantom = registration::generateCervicalPhantom(options);
+    } else {
+      patient_->labels = io::readImage(spec.labels);
+      if (patient_->labels.empty()) throw FormatError("the label map " + spec.labels.string() + " is empty");
+      patient_->lps_to_ijk = patient_->labels.ijkToLps().inverse();
+      patient_->vessel_labels = spec.vessel_labels;
+      patient_->ignored_labels = spec.ignored_labels;
+    }
+  }
+  if (scenario_.nwire_phantom) {
+    const auto config = io::readDeviceSet(scenario_.nwire_phantom->config);
+    if (!config.phantom || config.phantom->patterns.empty()) {
+      throw FormatError(scenario_.nwire_phantom->config.string() + " has no PhantomDefinition with wire patterns");
+    }
+    Eigen::AlignedBox3d box;
+    for (const auto& pattern : config.phantom->patterns) {
+      for (const auto& wire : pattern.wires) {
+        wires_phantom_.push_back({wire.end_point_front, wire.end_point_back, scenario_.nwire_phantom->wire_radius_mm});
+        box.extend(wire.end_point_front);
+        box.extend(wire.end_point_back);
+      }
+    }
+    EchoBox bath;
+    bath.scene_T_box.translation() = box.center();
+    bath.half_extent_mm = 0.5 * box.sizes() + Eigen::Vector3d::Constant(scenario_.nwire_phantom->bath_margin_mm);
+    bath_phantom_ = bath;
+  }
+}
+
+World::~World() = default;
+
+Eigen::Isometry3d World::patientShift(double t, bool relative) const {
+  Eigen::Isometry3d shift = Eigen::Isometry3d::Identity();
+  for (const auto& f : scenario_.faults) {
+    if (f.kind == FaultKind::PatientShift && f.relative_to_reference == relative && t >= f.at_s)
+      shift = shift * f.shift;
+  }
+  return shift;
+}
+
+Eigen::Isometry3d World::trackerTReference(double t) const {
+  if (!reference_index_) return Eigen::Isometry3d::Identity();
+  return toolPose(*reference_index_, t);
+}
+
+Eigen::Isometry3d World::trackerTCt(double t) const {
+  const Eigen::Isometry3d reference_T_ct =
+      scenario_.patient ? scenario_.patient->reference_T_ct : Eigen::Isometry3d::Identity();
+  // A shift relative to the reference moves the anatomy under a marker that stays put: the registration is
+  // then wrong, which navigation must detect; the whole-patient shift is already in the reference's pose.
+  return trackerTReference(t) * patientShift(t, true) * reference_T_ct;
+}
+
+Eigen::Isometry3d World::trackerTPhantom(double t) const {
+  const Eigen::Isometry3d reference_T_phantom =
+      scenario_.nwire_phantom ? scenario_.nwire_phantom->reference_T_phantom : Eigen::Isometry3d::Identity();
+  const Eigen::Isometry3d tracker_T_reference =
+      phantom_reference_index_ ? toolPose(*phantom_reference_index_, t) : Eigen::Isometry3d::Identity();
+  return tracker_T_reference * reference_T_phantom;
+}
+
+bool World::isReference(std::size_t index) const {
+  return (reference_index_ && index == *reference_index_) ||
+         (phantom_reference_index_ && index == *phantom_reference_index_);
+}
+
+Eigen::Isometry3d World::frameInTracker(PoseFrame frame, double t) const {
+  switch (frame) {
+    case PoseFrame::Tracker: return Eigen::Isometry3d::Identity();
+    case PoseFrame::Reference: return trackerTReference(t);
+    case PoseFrame::Phantom: return trackerTPhantom(t);
+    case PoseFrame::CT: return trackerTCt(t);
+    case PoseFrame::RobotBase: return scenario_.robot.tracker_T_base;
+  }
+  return Eigen::Isometry3d::Identity();
+}
+
+Eigen::Isometry3d World::toolPose(std::size_t index, double t) const {
+  const ToolSpec& tool = scenario_.tools[index];
+  const ToolTimeline& tl = *timelines_[index];
+  const Eigen::Isometry3d image_T_probe = scenario_.ultrasound.probe_T_image.inverse();
+  // A key pose (frame, pose, what it places) resolved to the tool in the tracker frame at time t.
+  struct Key {
+    PoseFrame frame;
+    Eigen::Isometry3d pose;
+    PoseOf of;
+  };
+  const auto resolve = [&](const Key& k) -> Eigen::Isometry3d {
+    // The reference itself cannot be posed relative to frames that follow it.
+    const PoseFrame frame = isReference(index) ? PoseFrame::Tracker : k.frame;
+    Eigen::Isometry3d p = frameInTracker(frame, t) * k.pose;
+    if (k.of == PoseOf::Image) p = p * image_T_probe;
+    return p;
+  };
+
+  Key previous{tool.start_frame, tool.start, PoseOf::Tool};
+  Eigen::Isometry3d pose = resolve(previous);
+  for (std::size_t s = 0; s < tool.motion.size(); ++s) {
+    const MotionSegment& seg = tool.motion[s];
+    const Key target = seg.pose ? Key{seg.frame, *seg.pose, seg.pose_of} : previous;
+    const double local = t - tl.starts[s];
+    if (local >= seg.duration_s) {
+      // Finished: the segment's end pose is the next one's start.
+      if (seg.kind == MotionKind::Hold || seg.kind == MotionKind::Move) previous = target;
+      pose = resolve(previous);
+      continue;
+    }
+    if (local < 0.0) break;
+    const double u = local / seg.duration_s;
+    const Eigen::Isometry3d from = resolve(previous);
+    switch (seg.kind) {
+      case MotionKind::Hold: pose = resolve(target); break;
+      case MotionKind::Move: pose = interpolatePose(from, resolve(target), minimumJerk(u)); break;
+      case MotionKind::Sweep: {
+        // Back and forth `cycles` times, slowing at each end as a hand does.
+        const double w = 0.5 - 0.5 * std::cos(kTwoPi * seg.cycles * u);
+        pose = interpolatePose(from, resolve(target), w);
+        break;
+      }
+      case MotionKind::Pivot: {
+        const double a = seg.amplitude_deg * kDeg;
+        const double ax = a * std::sin(kTwoPi * seg.frequency_hz * local);
+        const double ay = seg.one_axis ? 0.0 : a * std::sin(kTwoPi * 1.5 * seg.frequency_hz * local + 0.7);
+        const Eigen::Vector3d tip_tool = seg.tip_tool.value_or(tool.tip_tool.value_or(Eigen::Vector3d::Zero()));
+        const Eigen::Vector3d tip_tracker = from * tip_tool;
+        Eigen::Isometry3d p = from;
+        p.linear() = from.linear() * so3Exp(Eigen::Vector3d(ax, ay, 0.0));
+        p.translation() = tip_tracker - p.linear() * tip_tool;
+        pose = p;
+        break;
+      }
+      case MotionKind::UpDown: {
+        Eigen::Isometry3d p = from;
+        p.translation() +=
+            from.linear() * seg.axis_tool * seg.amplitude_mm * std::sin(kTwoPi * seg.frequency_hz * local);
+        pose = p;
+        break;
+      }
+    }
+    break;
+  }
+  // The hand, on top of the intended motion (the reference is clamped to the patient: no hand).
+  const HandModel& h = tool.hand;
+  Eigen::Isometry3d out = pose;
+  if (h.tremor_rms_mm > 0.0 || h.drift_mm > 0.0 || !tl.slips.empty() || h.tremor_rotation_rms_deg > 0.0) {
+    Eigen::Vector3d offset = Eigen::Vector3d::Zero();
+    // Per-axis sinusoids of RMS rms/sqrt(3) each give a 3D RMS of rms: amplitude sqrt(2/3) rms.
+    const double amp = h.tremor_rms_mm * std::sqrt(2.0 / 3.0);
+    Eigen::Vector3d rot = Eigen::Vector3d::Zero();
+    const double ramp = h.tremor_rotation_rms_deg * kDeg * std::sqrt(2.0 / 3.0);
+    for (int k = 0; k < 3; ++k) {
+      offset[k] += amp * std::sin(kTwoPi * tl.tremor_hz[k] * t + tl.tremor_phase[k]);
+      rot[k] = ramp * std::sin(kTwoPi * tl.tremor_hz[(k + 1) % 3] * t + tl.rot_tremor_phase[k]);
+    }
+    offset += tl.drift_direction * h.drift_mm * std::sin(kTwoPi * h.drift_hz * t + tl.drift_phase);
+    for (const auto& slip : tl.slips) {
+      // A slip, then the hand corrects it over about half a second.
+      if (t >= slip.at_s) offset += slip.offset * std::exp(-(t - slip.at_s) / 0.15);
+    }
+    out.translation() += offset;
+    out.linear() = out.linear() * so3Exp(rot);
+  }
+  // The whole patient moved (bumped table): its reference marker moves with it.
+  if (reference_index_ && index == *reference_index_) out = out * patientShift(t, false);
+  return out;
+}
+
+Visibility World::visibility(const ToolSpec& tool, const Eigen::Isometry3d& tracker_T_tool, double t,
+                             const std::vector<Eigen::Isometry3d>& poses) const {
+  for (const auto& f : scenario_.faults) {
+    if (f.kind == FaultKind::Occlusion && f.tool == tool.name && t >= f.at_s && t < f.at_s + f.duration_s) {
+      return Visibility::OccludedByFault;
+    }
+  }
+  const Eigen::Vector3d p = tracker_T_tool.translation();
+  const auto& v = scenario_.tracker.volume;
+  const double depth = -p.z();
+  if (depth < v.near_mm || depth > v.far_mm || std::abs(p.x()) > depth * std::tan(v.half_angle_x_deg * kDeg) ||
+      std::abs(p.y()) > depth * std::tan(v.half_angle_y_deg * kDeg)) {
+    return Visibility::OutOfVolume;
+  }
+  // Line of sight from the camera (the tracker frame's origin) to the marker.
+  const double length = p.norm();
+  const Eigen::Vector3d ray = p / length;
+  for (const auto& occ : scenario_.tracker.occluders) {
+    if (occ.attached_to == tool.name) continue;
+    Eigen::Vector3d c = occ.center;
+    if (!occ.attached_to.empty()) {
+      const auto it = std::find_if(scenario_.tools.begin(), scenario_.tools.end(),
+                                   [&](const ToolSpec& s) { return s.name == occ.attached_to; });
+      if (it == scenario_.tools.end()) continue;
+      c = poses[static_cast<std::size_t>(it - scenario_.tools.begin())] * occ.center;
+    }
+    const double along = std::clamp(c.dot(ray), 0.0, length);
+    if ((c - along * ray).norm() < occ.radius_mm + 0.5 * tool.marker_radius_mm) {
+      return Visibility::LineOfSightBlocked;
+    }
+  }
+  return Visibility::Visible;
+}
+
+std::vector<ToolTruth> World::tools(double t, const std::optional<Eigen::Isometry3d>& robot_base_T_flange) const {
+  std::vector<Eigen::Isometry3d> poses;
+  poses.reserve(scenario_.tools.size());
+  for (std::size_t i = 0; i < scenario_.tools.size(); ++i) poses.push_back(toolPose(i, t));
+  std::vector<ToolTruth> out;
+  out.reserve(poses.size() + 1);
+  for (std::size_t i = 0; i < poses.size(); ++i) {
+    out.push_back({scenario_.tools[i].name, poses[i], visibility(scenario_.tools[i], poses[i], t, poses)});
+  }
+  if (robot_base_T_flange) {
+    ToolSpec marker;
+    marker.name = scenario_.robot.marker_tool;
+    const Eigen::Isometry3d pose =
+        scenario_.robot.tracker_T_base * *robot_base_T_flange * scenario_.robot.flange_T_marker;
+    out.push_back({marker.name, pose, visibility(marker, pose, t, poses)});
+  }
+  return out;
+}
+
+Eigen::Isometry3d World::trackerTImage(double t) const {
+  if (!probe_index_) throw InvalidArgumentError("the scenario has no ultrasound probe");
+  return toolPose(*probe_index_, t) * scenario_.ultrasound.probe_T_image;
+}
+
+EchoScene World::echoScene(double t) const {
+  EchoScene scene;
+  if (!wires_phantom_.empty()) {
+    const Eigen::Isometry3d tracker_T_phantom = trackerTPhantom(t);
+    for (const auto& w : wires_phantom_)
+      scene.wires.push_back({tracker_T_phantom * w.a, tracker_T_phantom * w.b, w.radius_mm});
+    if (bath_phantom_)
+      scene.water_bath = EchoBox{tracker_T_phantom * bath_phantom_->scene_T_box, bath_phantom_->half_extent_mm};
+  }
+  if (patient_) {
+    const Eigen::Isometry3d ct_T_tracker = trackerTCt(t).inverse();
+    const Patient* patient = patient_.get();
+    scene.bone_distance_mm = [patient, ct_T_tracker](const Eigen::Vector3d& p) {
+      return patient->boneDistance(ct_T_tracker * p);
+    };
+    if (patient->phantom || !patient->vessel_labels.empty()) {
+      scene.vessel_distance_mm = [patient, ct_T_tracker](const Eigen::Vector3d& p) {
+        return patient->vesselDistance(ct_T_tracker * p);
+      };
+    }
+  }
+  return scene;
+}
+
+std::string World::staticTruthJson() const {
+  nlohmann::json j;
+  j["scenario"] = scenario_.name;
+  j["seed"] = scenario_.seed;
+  if (scenario_.ultrasound.enabled) {
+    j["ImageToProbe"] = poseJson(scenario_.ultrasound.probe_T_image);
+    j["image_spacing_mm"] = {scenario_.ultrasound.spacing_x_mm, scenario_.ultrasound.spacing_y_mm};
+    j["image_size_px"] = {scenario_.ultrasound.width, scenario_.ultrasound.height};
+    j["video_lag_s"] = scenario_.ultrasound.video_lag_s;
+  }
+  if (scenario_.patient) j["CTToReference"] = poseJson(scenario_.patient->reference_T_ct);
+  if (scenario_.nwire_phantom) j["PhantomToReference"] = poseJson(scenario_.nwire_phantom->reference_T_phantom);
+  if (scenario_.robot.enabled) {
+    j["RobotBaseToTracker"] = poseJson(scenario_.robot.tracker_T_base);
+    j["MarkerToFlange"] = poseJson(scenario_.robot.flange_T_marker);
+    j["drill_tip_flange_mm"] = {scenario_.robot.drill_tip_flange.x(), scenario_.robot.drill_tip_flange.y(),
+                                scenario_.robot.drill_tip_flange.z()};
+  }
+  nlohmann::json tips = nlohmann::json::object();
+  for (const auto& tool : scenario_.tools) {
+    if (tool.tip_tool) tips[tool.name] = {tool.tip_tool->x(), tool.tip_tool->y(), tool.tip_tool->z()};
+  }
+  j["tool_tips_mm"] = tips;
+  if (patient_ && patient_->phantom) {
+    nlohmann::json fiducials = nlohmann::json::array();
+    for (const auto& s : patient_->phantom->screws) {
+      fiducials.push_back({{"label", s.label}, {"ct_mm", {s.bone_entry.x(), s.bone_entry.y(), s.bone_entry.z()}}});
+    }
+    j["fiducials_ct"] = fiducials;
+  }
+  nlohmann::json faults = nlohmann::json::array();
+  for (const auto& f : scenario_.faults) {
+    faults.push_back({{"kind", toString(f.kind)}, {"at_s", f.at_s}, {"duration_s", f.duration_s}, {"tool", f.tool}});
+  }
+  j["faults"] = faults;
+  return j.dump();
+}
+
+}  // namespace mrsns::simulation

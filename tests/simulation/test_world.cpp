@@ -1,0 +1,138 @@
+// The world's truth: motion segments, the operator's hand (tremor RMS and
+// band), visibility (measurement volume, line of sight, faults), patient
+// shifts, image-plane poses.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "mrsns/core/rigid.h"
+#include "mrsns/simulation/scenario.h"
+#include "mrsns/simulation/world.h"
+
+namespace mrsns::simulation {
+namespace {
+
+Scenario scenarioWith(const std::string& tools, const std::string& extra = "") {
+  return parseScenario(R"({"format": "mrsns-scenario/1", "tools": [)" + tools + "]" + extra + "}", ".");
+}
+
+const std::string kInVolume = R"("start": {"translation_mm": [0, 0, -1200]})";
+
+TEST(World, MoveEndsAtItsTargetWithZeroSpeed) {
+  const auto s = scenarioWith(R"({"name": "StylusToTracker", )" + kInVolume +
+                              R"(, "motion": [{"kind": "move", "duration_s": 2,
+                                 "pose": {"translation_mm": [100, 0, -1200], "rotation_deg": [0, 30, 0]}}]})");
+  const World world(s);
+  const auto at = [&](double t) { return world.tools(t, std::nullopt)[0].tracker_T_tool; };
+  EXPECT_TRUE(at(0.0).translation().isApprox(Eigen::Vector3d(0, 0, -1200), 1e-9));
+  EXPECT_TRUE(at(2.0).translation().isApprox(Eigen::Vector3d(100, 0, -1200), 1e-9));
+  EXPECT_NEAR(rotationAngle(at(5.0).linear()), 30.0 * M_PI / 180.0, 1e-9) << "holds the end pose afterwards";
+  // Minimum jerk: no speed at the ends, fastest in the middle (1.875 x the mean speed).
+  const double end_speed = (at(2.0).translation() - at(1.999).translation()).norm() / 0.001;
+  const double mid_speed = (at(1.0005).translation() - at(0.9995).translation()).norm() / 0.001;
+  EXPECT_LT(end_speed, 0.01);
+  EXPECT_NEAR(mid_speed, 1.875 * 50.0, 0.1);
+}
+
+TEST(World, PivotKeepsTheTipInPlaceAndOneAxisPivotsStayInAPlane) {
+  for (const bool one_axis : {false, true}) {
+    const auto s = scenarioWith(R"({"name": "StylusToTracker", "tip_mm": [0, 0, -160], )" + kInVolume +
+                                R"(, "motion": [{"kind": "pivot", "duration_s": 10, "amplitude_deg": 25,
+                                   "one_axis": )" +
+                                std::string(one_axis ? "true" : "false") + "}]}");
+    const World world(s);
+    const Eigen::Vector3d tip0 = world.tools(0.0, std::nullopt)[0].tracker_T_tool * Eigen::Vector3d(0, 0, -160);
+    double max_tip = 0.0, max_angle = 0.0, max_off_plane = 0.0;
+    for (double t = 0.0; t < 10.0; t += 0.05) {
+      const auto pose = world.tools(t, std::nullopt)[0].tracker_T_tool;
+      max_tip = std::max(max_tip, (pose * Eigen::Vector3d(0, 0, -160) - tip0).norm());
+      max_angle = std::max(max_angle, rotationAngle(pose.linear()));
+      max_off_plane = std::max(max_off_plane, std::abs(so3Log(pose.linear()).y()));
+    }
+    EXPECT_LT(max_tip, 1e-9);
+    EXPECT_GT(max_angle, 20.0 * M_PI / 180.0);
+    if (one_axis) {
+      EXPECT_LT(max_off_plane, 1e-12) << "a one-axis pivot turns about x only";
+    } else {
+      EXPECT_GT(max_off_plane, 0.2);
+    }
+  }
+}
+
+TEST(World, HandTremorHasItsRmsInTheEightToTwelveHertzBand) {
+  const auto s = scenarioWith(R"({"name": "ProbeToTracker", )" + kInVolume +
+                              R"(, "hand": {"tremor_rms_mm": 0.5, "tremor_hz": [8, 12]}})");
+  const World world(s);
+  double sum2 = 0.0;
+  int n = 0, crossings = 0;
+  double previous = 0.0;
+  const double dt = 0.001, duration = 20.0;
+  for (double t = 0.0; t < duration; t += dt, ++n) {
+    const Eigen::Vector3d d =
+        world.tools(t, std::nullopt)[0].tracker_T_tool.translation() - Eigen::Vector3d(0, 0, -1200);
+    sum2 += d.squaredNorm();
+    if (n > 0 && (d.x() > 0.0) != (previous > 0.0)) ++crossings;
+    previous = d.x();
+  }
+  EXPECT_NEAR(std::sqrt(sum2 / n), 0.5, 0.03);
+  const double hz = crossings / 2.0 / duration;
+  EXPECT_GE(hz, 8.0);
+  EXPECT_LE(hz, 12.0);
+}
+
+TEST(World, VisibilityFollowsTheVolumeTheLineOfSightAndTheFaults) {
+  const auto s = scenarioWith(
+      R"({"name": "StylusToTracker", )" + kInVolume + R"(},
+         {"name": "ProbeToTracker", "start": {"translation_mm": [0, 0, -500]}},
+         {"name": "PatientToTracker", "start": {"translation_mm": [0, 0, -1600]}},
+         {"name": "HeadsetToTracker", "start": {"translation_mm": [900, 0, -1200]}})",
+      R"(, "tracker": {"occluders": [{"center_mm": [0, 0, 0], "radius_mm": 50, "attached_to": "StylusToTracker"}]},
+          "faults": [{"kind": "occlusion", "tool": "StylusToTracker", "at_s": 1, "duration_s": 0.5}])");
+  const World world(s);
+  const auto tools = world.tools(0.0, std::nullopt);
+  EXPECT_EQ(tools[0].visibility, Visibility::Visible) << "its own occluder (the hand holding it) does not hide it";
+  EXPECT_EQ(tools[1].visibility, Visibility::OutOfVolume) << "closer than the 950 mm near plane";
+  EXPECT_EQ(tools[2].visibility, Visibility::LineOfSightBlocked) << "behind the hand holding the stylus";
+  EXPECT_EQ(tools[3].visibility, Visibility::OutOfVolume) << "outside the 18 degree half-angle";
+  EXPECT_EQ(world.tools(1.2, std::nullopt)[0].visibility, Visibility::OccludedByFault);
+  EXPECT_EQ(world.tools(1.6, std::nullopt)[0].visibility, Visibility::Visible);
+}
+
+TEST(World, PatientShiftMovesTheAnatomyAndTheReferenceUnlessRelative) {
+  const auto s =
+      scenarioWith(R"({"name": "PatientToTracker", )" + kInVolume + "}",
+                   R"(, "patient": {"generated_phantom": {"spacing_mm": 2.0}, "reference_tool": "PatientToTracker",
+                       "ct_to_reference": {"translation_mm": [0, 50, 0]}},
+          "faults": [{"kind": "patient_shift", "at_s": 1, "shift": {"translation_mm": [5, 0, 0]}},
+                     {"kind": "patient_shift", "at_s": 2, "shift": {"translation_mm": [0, 3, 0]},
+                      "relative_to_reference": true}])");
+  const World world(s);
+  const Eigen::Vector3d ct0 = world.trackerTCt(0.5).translation();
+  EXPECT_TRUE(ct0.isApprox(Eigen::Vector3d(0, 50, -1200), 1e-9));
+  EXPECT_TRUE(world.trackerTCt(1.5).translation().isApprox(Eigen::Vector3d(5, 50, -1200), 1e-9));
+  EXPECT_TRUE(world.trackerTReference(1.5).translation().isApprox(Eigen::Vector3d(5, 0, -1200), 1e-9));
+  EXPECT_TRUE(world.trackerTCt(2.5).translation().isApprox(Eigen::Vector3d(5, 53, -1200), 1e-9));
+  EXPECT_TRUE(world.trackerTReference(2.5).translation().isApprox(Eigen::Vector3d(5, 0, -1200), 1e-9))
+      << "the anatomy slid under a reference that stayed put";
+  const auto scene = world.echoScene(0.5);
+  ASSERT_TRUE(scene.bone_distance_mm && scene.vessel_distance_mm);
+}
+
+TEST(World, ImagePosesPlaceTheImagePlaneThroughTheTrueCalibration) {
+  const auto s = scenarioWith(
+      R"({"name": "ProbeToTracker", "motion": [{"kind": "hold", "pose_of": "image",
+          "pose": {"translation_mm": [10, 20, -1300], "rotation_deg": [0, 0, 45]}}]},
+         {"name": "ReferenceToTracker", )" +
+          kInVolume + "}",
+      R"(, "patient": {"generated_phantom": {"spacing_mm": 2.0}, "reference_tool": "ReferenceToTracker"},
+          "ultrasound": {"image_to_probe": {"translation_mm": [11, 46, -7], "rotation_deg": [5, -80, 3]}})");
+  const World world(s);
+  const Eigen::Isometry3d image = world.trackerTImage(0.5);
+  EXPECT_TRUE(image.translation().isApprox(Eigen::Vector3d(10, 20, -1300), 1e-9));
+  EXPECT_NEAR(rotationAngle(image.linear()), M_PI / 4.0, 1e-9);
+  const Eigen::Isometry3d probe = world.tools(0.5, std::nullopt)[0].tracker_T_tool;
+  EXPECT_TRUE((probe * s.ultrasound.probe_T_image).matrix().isApprox(image.matrix(), 1e-9));
+}
+
+}  // namespace
+}  // namespace mrsns::simulation
