@@ -99,3 +99,38 @@ function(mrsns_check_module_boundaries)
     endif()
   endforeach()
 endfunction()
+
+# The device boundary of ARCHITECTURE.md: the workstation acquires every
+# measurement from devices and files, never from the simulated operating room.
+# Fails the configuration when a workstation target (workflow, the GUI, the
+# CLI) links mrsns_simulation, directly or through any dependency, or when a
+# source outside modules/simulation, app/sim and tests includes its headers.
+function(mrsns_check_simulation_boundary)
+  set(_workstation mrsns_workflow mrsns mrsns-cli mrsns_cli_verbs mrsns_gui_lib)
+  get_property(_modules GLOBAL PROPERTY MRSNS_MODULES)
+  foreach(_t IN LISTS _workstation _modules)
+    if(NOT TARGET ${_t} OR _t STREQUAL "mrsns_simulation")
+      continue()
+    endif()
+    _mrsns_link_closure(${_t} _closure)
+    foreach(_lib IN LISTS _closure)
+      if(_lib STREQUAL "mrsns_simulation" OR _lib STREQUAL "mrsns::simulation")
+        message(FATAL_ERROR "Device boundary violated: ${_t} links ${_lib}. Only app/sim (mrsns-sim) may link "
+          "the simulated operating room; the workstation talks to it through the device protocols "
+          "(see ARCHITECTURE.md, 'The device boundary').")
+      endif()
+    endforeach()
+  endforeach()
+  file(GLOB_RECURSE _sources "${CMAKE_SOURCE_DIR}/modules/*.h" "${CMAKE_SOURCE_DIR}/modules/*.cpp"
+    "${CMAKE_SOURCE_DIR}/app/*.h" "${CMAKE_SOURCE_DIR}/app/*.cpp")
+  foreach(_f IN LISTS _sources)
+    if(_f MATCHES "/modules/simulation/" OR _f MATCHES "/app/sim/")
+      continue()
+    endif()
+    file(STRINGS "${_f}" _includes REGEX "^[ \t]*#[ \t]*include[ \t]*[<\"]mrsns/simulation/")
+    if(_includes)
+      message(FATAL_ERROR "Device boundary violated: ${_f} includes the simulation (${_includes}). "
+        "Only app/sim may use it (see ARCHITECTURE.md, 'The device boundary').")
+    endif()
+  endforeach()
+endfunction()

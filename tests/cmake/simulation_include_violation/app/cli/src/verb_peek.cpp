@@ -1,0 +1,2 @@
+// A verb that peeks at the simulated world's truth: must fail the configuration.
+#include "mrsns/simulation/world.h"

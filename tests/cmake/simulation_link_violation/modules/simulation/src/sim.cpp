@@ -1,0 +1,1 @@
+int simulatedSomething() { return 1; }

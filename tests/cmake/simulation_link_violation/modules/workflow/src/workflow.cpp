@@ -1,0 +1,1 @@
+int workflowSomething() { return 2; }
