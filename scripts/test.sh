@@ -15,14 +15,18 @@ if [ $# -eq 0 ] && command -v clang++-14 >/dev/null 2>&1; then
   phase_end
 fi
 
-phase_start "interop peer (pyigtl in $MRSNS_BUILD_DIR/venv)"
-# Without network or pip the pyigtl interop test skips; it never fails the suite.
+phase_start "interop peers (pyigtl, ur_rtde in $MRSNS_BUILD_DIR/venv)"
+# Without network or pip the Python interop tests skip; they never fail the suite.
+# ur-rtde 1.6.5 installs as a manylinux wheel (checked: CPython 3.11, x86_64); where
+# pip has no wheel for the Python, its test is skipped, not built from source.
 if [ ! -x "$MRSNS_BUILD_DIR/venv/bin/python" ]; then
-  python3 -m venv "$MRSNS_BUILD_DIR/venv" >/dev/null 2>&1 || echo "no venv: the pyigtl interop test will be skipped"
+  python3 -m venv "$MRSNS_BUILD_DIR/venv" >/dev/null 2>&1 || echo "no venv: the Python interop tests will be skipped"
 fi
 if [ -x "$MRSNS_BUILD_DIR/venv/bin/pip" ]; then
   "$MRSNS_BUILD_DIR/venv/bin/pip" install -q --disable-pip-version-check pyigtl==0.3.4 >/dev/null 2>&1 ||
-    echo "pip install pyigtl==0.3.4 failed: the pyigtl interop test will be skipped"
+    echo "pip install pyigtl==0.3.4 failed: the pyigtl interop tests will be skipped"
+  "$MRSNS_BUILD_DIR/venv/bin/pip" install -q --disable-pip-version-check --only-binary ur-rtde ur-rtde==1.6.5 \
+    >/dev/null 2>&1 || echo "pip install ur-rtde==1.6.5 failed: the ur_rtde interop test will be skipped"
 fi
 phase_end
 
