@@ -108,6 +108,11 @@ std::optional<TrackedImage> IgtlTrackingSource::latestImage() const {
   return image_;
 }
 
+std::string IgtlTrackingSource::deviceIdentity() const {
+  std::lock_guard lock(mutex_);
+  return device_identity_;
+}
+
 IgtlSourceStats IgtlTrackingSource::stats() const {
   std::lock_guard lock(mutex_);
   return stats_;
@@ -190,6 +195,10 @@ void IgtlTrackingSource::handleMessage(const igtlink::Message& message) noexcept
         u.timestamp = t;
         updates.push_back(std::move(u));
       }
+    } else if (const auto* status = message.as<igtlink::StatusContent>()) {
+      // A device's own description of itself; bounded, as it is shown to the user.
+      device_identity_ = status->message.substr(0, 200);
+      return;
     } else if (const auto* image = message.as<igtlink::ImageContent>()) {
       ++stats_.images;
       image_ = imageFrom(message, *image);
@@ -231,6 +240,13 @@ void IgtlTrackingSource::onConnection(bool is_connected) noexcept {
   if (is_connected) {
     setState(SourceState::Running);
     logger()->info("OpenIGTLink source: connected to {}:{}", options_.client.host, options_.client.port);
+    if (options_.identify_device && client_) {
+      try {
+        client_->send(igtlink::makeMessage("GET_STATUS", "", igtlink::GetRequest{}), options_.request_version);
+      } catch (const std::exception& e) {
+        logger()->error("OpenIGTLink source: cannot send GET_STATUS: {}", e.what());
+      }
+    }
     if (options_.request_tdata && client_) {
       igtlink::StartTrackingDataContent request;
       request.resolution_ms = options_.tdata_resolution_ms;

@@ -83,6 +83,7 @@ std::unique_ptr<tracking::TrackingSource> makeTrackingSource(const DeviceOptions
     tracking::IgtlSourceOptions igtl;
     igtl.client.host = options.host;
     igtl.client.port = static_cast<std::uint16_t>(options.port);
+    igtl.identify_device = true;
     return std::make_unique<tracking::IgtlTrackingSource>(std::move(repository), igtl);
   }
   if (options.source == "playback") {

@@ -1,5 +1,6 @@
 // connect-devices and navigation steps: run the tracker (and the loop) for a
 // while, report what arrived.
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <sstream>
@@ -109,12 +110,19 @@ StepResult runConnectDevices(Session& session, const Json& params, const StepCon
   auto source = makeTrackingSource(devices, repository);
   std::mutex mutex;
   std::map<std::string, std::pair<std::uint64_t, std::uint64_t>> seen;  // name -> (ok, not ok)
+  // Per tool: first and last timestamp of its valid samples. A PlusServer sends one TRANSFORM per tool, so
+  // batches alone would count every tool's message as a tick of its own.
+  std::map<std::string, std::pair<double, double>> valid_span;
   std::vector<double> stamps;
   source->setUpdateCallback([&](std::span<const tracking::ToolUpdate> updates) {
     std::lock_guard lock(mutex);
     for (const auto& u : updates) {
       auto& c = seen[u.name];
       (u.status == TransformStatus::Ok ? c.first : c.second)++;
+      if (u.status == TransformStatus::Ok) {
+        auto [it, fresh] = valid_span.try_emplace(u.name, u.timestamp, u.timestamp);
+        if (!fresh) it->second.second = u.timestamp;
+      }
     }
     if (!updates.empty()) stamps.push_back(updates.front().timestamp);
   });
@@ -130,7 +138,13 @@ StepResult runConnectDevices(Session& session, const Json& params, const StepCon
 
   std::lock_guard lock(mutex);
   Json tools = Json::object();
-  for (const auto& [name, counts] : seen) tools[name] = {{"ok", counts.first}, {"not_ok", counts.second}};
+  for (const auto& [name, counts] : seen) {
+    tools[name] = {{"ok", counts.first}, {"not_ok", counts.second}};
+    const auto span = valid_span.find(name);
+    if (span != valid_span.end() && counts.first > 1 && span->second.second > span->second.first) {
+      tools[name]["rate_hz"] = static_cast<double>(counts.first - 1) / (span->second.second - span->second.first);
+    }
+  }
   std::vector<double> intervals;
   for (std::size_t i = 1; i < stamps.size(); ++i) intervals.push_back(stamps[i] - stamps[i - 1]);
   double mean = 0.0, jitter = 0.0;
@@ -141,7 +155,11 @@ StepResult runConnectDevices(Session& session, const Json& params, const StepCon
 
   StepResult result;
   result.ok = !seen.empty();
+  const std::string identity = source->deviceIdentity();
   result.figures = {{"source", devices.source},
+                    {"device_identity", identity},
+                    // Provenance: the in-process simulator, or the simulated operating room saying what it is.
+                    {"simulated", devices.source == "simulated" || identity.rfind("mrsns-sim", 0) == 0},
                     {"state", std::string(tracking::toString(status.state))},
                     {"message", status.message},
                     {"batches", stamps.size()},
@@ -151,8 +169,17 @@ StepResult runConnectDevices(Session& session, const Json& params, const StepCon
   std::ostringstream s;
   s.precision(3);
   if (result.ok) {
-    s << seen.size() << " tools from the " << devices.source << " tracker at " << (mean > 0.0 ? 1.0 / mean : 0.0)
-      << " Hz";
+    // Per tool: a PlusServer sends each tool in its own message, so the batch rate is not the tracker's.
+    std::vector<double> rates;
+    for (const auto& [name, figure] : tools.items()) {
+      if (figure.contains("rate_hz")) rates.push_back(figure["rate_hz"].get<double>());
+    }
+    std::sort(rates.begin(), rates.end());
+    const double rate = rates.empty() ? (mean > 0.0 ? 1.0 / mean : 0.0) : rates[rates.size() / 2];
+    s << seen.size() << " tools from the " << devices.source << " tracker at " << rate << " Hz"
+      << (rates.empty() ? "" : " (median per tool)");
+    if (result.figures["simulated"].get<bool>())
+      s << " [SIMULATED: " << (identity.empty() ? devices.source : identity) << "]";
   } else {
     s << "no data from the " << devices.source << " tracker in " << duration << " s ("
       << tracking::toString(status.state) << (status.message.empty() ? "" : ": " + status.message)

@@ -9,6 +9,7 @@
 // - TDATA: one update per element; an element name without "To" gets
 //   "To<tdata_reference>" appended. With request_tdata, STT_TDATA is sent on
 //   every (re)connection to start the stream.
+// - STATUS: its text is the device's identity (see identify_device).
 // - IMAGE: kept as latestImage(); device "Image_Reference" (PLUS) is placed in
 //   frame "Reference". OpenIGTLink sends the position of the volume's centre;
 //   ijk_to_frame is converted to the position of voxel (0,0,0).
@@ -34,6 +35,10 @@ struct IgtlSourceOptions {
   igtlink::HeaderVersion request_version = igtlink::HeaderVersion::kV1;
   /// No update for longer than this (s) makes a tool Invalid; 0 disables.
   double stale_after_s = 0.2;
+  /// Sends GET_STATUS on every (re)connection and keeps the STATUS text the
+  /// device answers with as deviceIdentity() (PlusServer ignores it; mrsns-sim
+  /// says what it is, so its results are marked simulated).
+  bool identify_device = false;
 };
 
 struct IgtlSourceStats {
@@ -57,6 +62,7 @@ class IgtlTrackingSource : public TrackingSource {
   [[nodiscard]] std::string name() const override;
   [[nodiscard]] std::vector<std::string> toolNames() const override;
   [[nodiscard]] std::optional<TrackedImage> latestImage() const override;
+  [[nodiscard]] std::string deviceIdentity() const override;
   [[nodiscard]] IgtlSourceStats stats() const;
   [[nodiscard]] bool connected() const;
 
@@ -81,6 +87,7 @@ class IgtlTrackingSource : public TrackingSource {
   std::map<std::string, Tool> tools_;
   IgtlSourceStats stats_;
   std::optional<TrackedImage> image_;
+  std::string device_identity_;
 
   std::mutex watchdog_mutex_;
   std::condition_variable watchdog_wake_;

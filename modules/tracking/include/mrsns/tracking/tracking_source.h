@@ -93,6 +93,9 @@ class TrackingSource {
   [[nodiscard]] SourceStatus status() const;
   /// The latest image, if the source delivers images and one has arrived.
   [[nodiscard]] virtual std::optional<TrackedImage> latestImage() const { return std::nullopt; }
+  /// What the device says it is (a PlusServer's answer to GET_STATUS), empty when it has not said. A device
+  /// whose identity starts with "mrsns-sim" is the simulated operating room: its results are simulated.
+  [[nodiscard]] virtual std::string deviceIdentity() const { return {}; }
 
   /// Set before start().
   void setUpdateCallback(UpdateCallback callback);
