@@ -228,6 +228,8 @@ void MainWindow::buildMenus() {
   add(steps, tr("&Cancel running task"), QKeySequence(Qt::Key_Escape), QStringLiteral("actionCancel"),
       [this] { cancelTask(); });
 
+  buildDevicesMenu();
+
   auto* view = menuBar()->addMenu(tr("&View"));
   add(view, tr("&Reset camera"), QKeySequence(Qt::Key_Home), QStringLiteral("actionResetCamera"),
       [this] { display_->resetCamera(); });
@@ -262,6 +264,12 @@ void MainWindow::buildStatusBar() {
   cancel_->hide();
   connect(cancel_, &QPushButton::clicked, this, &MainWindow::cancelTask);
   statusBar()->addWidget(session_status_, 1);
+  sim_label_ = new QLabel(this);
+  sim_label_->setObjectName(QStringLiteral("simulatedBanner"));
+  sim_label_->setStyleSheet(QStringLiteral("QLabel { background: #b35900; color: white; font-weight: bold; "
+                                           "padding: 1px 6px; }"));
+  sim_label_->hide();
+  statusBar()->addPermanentWidget(sim_label_);
   statusBar()->addPermanentWidget(task_label_);
   statusBar()->addPermanentWidget(progress_);
   statusBar()->addPermanentWidget(cancel_);
@@ -292,6 +300,7 @@ void MainWindow::closeEvent(QCloseEvent* event) {
     tasks_->waitForFinished();
   }
   stopHologramStream();
+  stopSimulatedRoom();
   if (options_.remember_window_state) {
     QSettings settings;
     settings.setValue(QStringLiteral("window/geometry"), saveGeometry());

@@ -41,6 +41,7 @@ class FunctionPanel;
 class LiveNavigation;
 class MessagePresenter;
 class OutputPanel;
+class SimulatedRoom;
 class TaskRunner;
 struct TaskOutcome;
 
@@ -117,6 +118,17 @@ class MainWindow : public QMainWindow {
   DisplayArea* displayArea() const { return display_; }
   TaskRunner* taskRunner() const { return tasks_; }
 
+  /// Starts the simulated operating room (mrsns-sim, its own process) on
+  /// `scenario` (the bundled default when empty) for a demonstration; the
+  /// status bar marks it SIMULATED while it runs. False with a message when
+  /// it cannot start; failures later come as messages too.
+  bool startSimulatedRoom(const QString& scenario = {});
+  void stopSimulatedRoom();
+  /// Runs connect-devices on the simulated room when it is ready, else on a
+  /// PlusServer at 127.0.0.1:18944.
+  bool connectDevices();
+  SimulatedRoom* simulatedRoom() const { return sim_room_; }
+
  signals:
   void sessionOpened(const QString& folder);
   void taskFinished(const QString& name, bool ok);
@@ -126,6 +138,7 @@ class MainWindow : public QMainWindow {
 
  private:
   void buildMenus();
+  void buildDevicesMenu();
   void buildStatusBar();
   void restoreWindowState();
   void rememberSession(const QString& folder);
@@ -165,6 +178,8 @@ class MainWindow : public QMainWindow {
   QPushButton* cancel_ = nullptr;
   QLabel* task_label_ = nullptr;
   QLabel* session_status_ = nullptr;
+  QLabel* sim_label_ = nullptr;  // SIMULATED banner while mrsns-sim runs
+  SimulatedRoom* sim_room_ = nullptr;
   QMenu* recent_menu_ = nullptr;
   std::unique_ptr<igtlink::Server> stream_server_;
   std::unique_ptr<tracking::HologramStreamer> streamer_;

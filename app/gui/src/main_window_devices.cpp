@@ -1,0 +1,78 @@
+// The Devices menu: the simulated operating room (mrsns-sim as a child
+// process) for demonstrations, and connecting to the tracker. Everything that
+// comes from the simulated room is marked: the SIMULATED banner while it
+// runs, and the connect-devices step records `simulated: true` from what the
+// device says it is.
+#include <QAction>
+#include <QLabel>
+#include <QMenu>
+#include <QMenuBar>
+#include <QStatusBar>
+
+#include "main_window.h"
+#include "simulated_room.h"
+
+namespace mrsns::gui {
+
+void MainWindow::buildDevicesMenu() {
+  sim_room_ = new SimulatedRoom(this);
+  auto* devices = menuBar()->addMenu(tr("&Devices"));
+  auto* start = devices->addAction(tr("Start &simulated operating room"));
+  start->setObjectName(QStringLiteral("actionStartSimulatedRoom"));
+  start->setToolTip(tr("Runs mrsns-sim (tracker, ultrasound and UR5 on their real protocols) for a demonstration"));
+  connect(start, &QAction::triggered, this, [this] { startSimulatedRoom(); });
+  auto* connect_action = devices->addAction(tr("&Connect to the tracker"));
+  connect_action->setObjectName(QStringLiteral("actionConnectDevices"));
+  connect_action->setShortcut(QKeySequence(QStringLiteral("Ctrl+D")));
+  connect(connect_action, &QAction::triggered, this, [this] { connectDevices(); });
+  auto* stop = devices->addAction(tr("S&top simulated operating room"));
+  stop->setObjectName(QStringLiteral("actionStopSimulatedRoom"));
+  connect(stop, &QAction::triggered, this, [this] { stopSimulatedRoom(); });
+
+  connect(sim_room_, &SimulatedRoom::becameReady, this, [this](const SimulatedRoomEndpoints& e) {
+    sim_label_->setText(tr("SIMULATED OR  PlusServer %1:%2%3")
+                            .arg(e.host)
+                            .arg(e.plus_port)
+                            .arg(e.rtde_port ? tr("  UR RTDE %1").arg(e.rtde_port) : QString()));
+    sim_label_->setToolTip(
+        tr("Every measurement now comes from mrsns-sim, the simulated operating room; results "
+           "from it are marked simulated"));
+    sim_label_->show();
+    statusBar()->showMessage(tr("Simulated operating room ready: Devices > Connect to the tracker"), 8000);
+  });
+  connect(sim_room_, &SimulatedRoom::failed, this, [this](const QString& why) {
+    sim_label_->hide();
+    presentError(tr("Simulated operating room"), why);
+  });
+  connect(sim_room_, &SimulatedRoom::stopped, this, [this] {
+    sim_label_->hide();
+    statusBar()->showMessage(tr("Simulated operating room stopped"), 5000);
+  });
+}
+
+bool MainWindow::startSimulatedRoom(const QString& scenario) {
+  QString why;
+  const QString file = scenario.isEmpty() ? SimulatedRoom::defaultScenario() : scenario;
+  if (!sim_room_->start(file, why)) {
+    presentError(tr("Simulated operating room"), why);
+    return false;
+  }
+  sim_label_->setText(tr("SIMULATED OR starting…"));
+  sim_label_->show();
+  return true;
+}
+
+void MainWindow::stopSimulatedRoom() {
+  sim_room_->stop();
+}
+
+bool MainWindow::connectDevices() {
+  nlohmann::json params{{"source", "plus"}, {"duration_s", 2.0}};
+  if (sim_room_->ready()) {
+    params["host"] = sim_room_->endpoints().host.toStdString();
+    params["port"] = sim_room_->endpoints().plus_port;
+  }
+  return runStep(QStringLiteral("connect-devices"), params);
+}
+
+}  // namespace mrsns::gui

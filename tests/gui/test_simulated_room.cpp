@@ -1,0 +1,53 @@
+// The Devices menu drives the simulated operating room as a user would: start
+// mrsns-sim from the GUI, see the SIMULATED banner, connect to it as to a
+// PlusServer, find every tool and the step marked simulated, stop it.
+#include <QLabel>
+#include <QTest>
+#include <fstream>
+
+#include "sample_window_fixture.h"
+#include "simulated_room.h"
+
+namespace {
+
+class SimulatedRoomTest : public mrsns::test::SampleWindowTest {
+ protected:
+  SimulatedRoomTest() : SampleWindowTest("gui-simroom") {}
+};
+
+TEST_F(SimulatedRoomTest, StartConnectAndStopFromTheDevicesMenu) {
+  if (!mrsns::test::haveSampleSession()) GTEST_SKIP() << "no bundled sample session";
+  MRSNS_REQUIRE_DATA(config, "plus/PlusDeviceSet_fCal_Sim_SpatialCalibration_1.2.xml");
+  if (mrsns::gui::SimulatedRoom::findProgram().isEmpty()) GTEST_SKIP() << "mrsns-sim is not built";
+  auto window = makeWindow();
+  ASSERT_TRUE(window->openSampleSession()) << messages();
+  ASSERT_TRUE(window->startSimulatedRoom()) << messages();
+  auto* banner = window->findChild<QLabel*>("simulatedBanner");
+  ASSERT_NE(banner, nullptr);
+  EXPECT_TRUE(banner->isVisible());
+  ASSERT_TRUE(mrsns::test::waitUntil([&] { return window->simulatedRoom()->ready(); }, 60000)) << messages();
+  EXPECT_TRUE(banner->text().startsWith("SIMULATED OR")) << banner->text().toStdString();
+  EXPECT_GT(window->simulatedRoom()->endpoints().plus_port, 0);
+
+  ASSERT_TRUE(window->connectDevices()) << messages();
+  ASSERT_TRUE(mrsns::test::waitUntil([&] { return !window->taskRunning(); }, 30000));
+  const auto state = window->sessionState();
+  const auto& step = state["steps"]["connect-devices"];
+  ASSERT_EQ(step.value("status", ""), "ok") << step.dump() << messages();
+  EXPECT_TRUE(step["figures"]["simulated"].get<bool>()) << "the device said it is mrsns-sim";
+  for (const char* tool : {"ProbeToTracker", "StylusToTracker", "PatientToTracker", "ReferenceToTracker"}) {
+    EXPECT_TRUE(step["figures"]["tools"].contains(tool)) << tool;
+  }
+  const auto png = mrsns::test::guiArtifactDir() / "main_window_simulated_room_connected.png";
+  EXPECT_TRUE(window->saveScreenshot(QString::fromStdString(png.string()))) << messages();
+
+  // The truth stays outside the session folder.
+  const auto truth = window->simulatedRoom()->truthFile().toStdString();
+  EXPECT_EQ(truth.find(window->sessionFolder().toStdString()), std::string::npos);
+  window->stopSimulatedRoom();
+  EXPECT_FALSE(window->simulatedRoom()->running());
+  ASSERT_TRUE(mrsns::test::waitUntil([&] { return !banner->isVisible(); }, 5000));
+  EXPECT_TRUE(std::filesystem::exists(truth)) << "mrsns-sim wrote its truth when stopped";
+}
+
+}  // namespace
