@@ -48,8 +48,8 @@ TriangleMesh box() {
     mesh.vertices.row(i) << 40.0 * (i & 1), 20.0 * ((i >> 1) & 1), 10.0 * ((i >> 2) & 1);
   }
   mesh.faces.resize(12, 3);
-  mesh.faces << 0, 2, 1, 1, 2, 3, 4, 5, 6, 5, 7, 6, 0, 1, 4, 1, 5, 4, 2, 6, 3, 3, 6, 7, 0, 4, 2, 2, 4, 6, 1, 3, 5, 3,
-      7, 5;
+  mesh.faces << 0, 2, 1, 1, 2, 3, 4, 5, 6, 5, 7, 6, 0, 1, 4, 1, 5, 4, 2, 6, 3, 3, 6, 7, 0, 4, 2, 2, 4, 6, 1, 3, 5, 3, 7,
+      5;
   return mesh;
 }
 
@@ -79,8 +79,16 @@ void displaysSimulatorModels(const std::vector<std::string>& extra_args, bool un
   const auto c5_vertices = static_cast<std::size_t>(io::readMesh(dir / "C5.stl").vertexCount());
   const auto skin_vertices = static_cast<std::size_t>(io::readMesh(dir / "Skin.stl").vertexCount());
   const auto port = freePort();
-  std::vector<std::string> args = {"--port", std::to_string(port), "--source", "simulator", "--rate", "100", "--models",
-                                   (dir / "C5.stl").string(), (dir / "Skin.stl").string(), "--json"};
+  std::vector<std::string> args = {"--port",
+                                   std::to_string(port),
+                                   "--source",
+                                   "simulator",
+                                   "--rate",
+                                   "100",
+                                   "--models",
+                                   (dir / "C5.stl").string(),
+                                   (dir / "Skin.stl").string(),
+                                   "--json"};
   args.insert(args.end(), extra_args.begin(), extra_args.end());
   ServeProcess serve(args);
   ASSERT_TRUE(serve.started());
@@ -201,8 +209,8 @@ TEST(HmdServe, EmulatorDisplaysTheRecordedProbePoseOfEachFrame) {
           return false;
         }
         ++compared;
-        worst_rotation = std::max(worst_rotation,
-                                  (shown->hologram_T_model.linear() - it->second.linear()).cwiseAbs().maxCoeff());
+        worst_rotation =
+            std::max(worst_rotation, (shown->hologram_T_model.linear() - it->second.linear()).cwiseAbs().maxCoeff());
         worst_translation_mm =
             std::max(worst_translation_mm, (shown->hologram_T_model.translation() - it->second.translation()).norm());
         return compared >= 100;

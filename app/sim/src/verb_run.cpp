@@ -96,6 +96,11 @@ int run(const RunOptions& o, const SimOptions& options) {
          {"faults_fired", s.faults_fired},
          {"messages", {{"TRANSFORM", s.transform_messages}, {"TDATA", s.tdata_messages}, {"IMAGE", s.image_messages}}},
          {"clients_connected", s.clients_connected},
+         {"hmd",
+          {{"enabled", scenario.hmd.enabled},
+           {"connected", s.hmd_connected},
+           {"meshes", s.hmd_meshes},
+           {"transforms_displayed", s.hmd_transforms}}},
          {"truth", truth_path.string()}};
   char text[512];
   std::snprintf(

@@ -201,7 +201,8 @@ struct HmdEmulator::Impl {
 };
 
 HmdEmulator::HmdEmulator(HmdEmulatorOptions options) : impl_(std::make_shared<Impl>()) {
-  if (options.host.empty()) throw InvalidArgumentError("HMD emulator: the host is empty; give the workstation's address");
+  if (options.host.empty())
+    throw InvalidArgumentError("HMD emulator: the host is empty; give the workstation's address");
   if (options.port == 0) throw InvalidArgumentError("HMD emulator: port 0; give the hologram stream's port");
   auto check = [](double v, const char* what) {
     if (!std::isfinite(v) || v < 0.0) {

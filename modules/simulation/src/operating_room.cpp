@@ -18,6 +18,7 @@
 #include "mrsns/io/sequence_file.h"
 #include "mrsns/robot/ur_simulator.h"
 #include "mrsns/simulation/bmode_renderer.h"
+#include "mrsns/simulation/hmd_emulator.h"
 #include "mrsns/simulation/plus_server.h"
 #include "mrsns/simulation/world.h"
 
@@ -58,6 +59,14 @@ struct FrameTruth {
   bool frozen;
 };
 
+// What the headset displayed at an instant: per model, its pose in the headset's drifting world frame.
+struct HmdTruth {
+  double utc;
+  std::vector<std::string> names;
+  std::vector<std::array<double, 7>> world_T_model;
+  std::vector<bool> visible;
+};
+
 struct EventTruth {
   double t;
   double utc;
@@ -71,6 +80,7 @@ struct OperatingRoom::Impl {
   std::unique_ptr<World> world;
   std::unique_ptr<PlusServerEmulator> plus;
   std::unique_ptr<robot::UrSimulator> ur;
+  std::unique_ptr<HmdEmulator> hmd;
   std::optional<TrackedSequence> replay;
 
   std::atomic<bool> running{false};
@@ -83,6 +93,7 @@ struct OperatingRoom::Impl {
   std::vector<std::string> tool_names;
   std::vector<TrackerTruth> tracker_truth;
   std::vector<FrameTruth> frame_truth;
+  std::vector<HmdTruth> hmd_truth;
   std::vector<EventTruth> events;
   OperatingRoomStats stats;
 
@@ -125,6 +136,7 @@ struct OperatingRoom::Impl {
         break;
       }
       fireFaults(t, started, ended);
+      if (hmd && tick % 6 == 0) recordHmd(t);
       std::optional<Eigen::Isometry3d> base_T_flange;
       if (ur) base_T_flange = ur->armState().base_T_flange;
       const auto truth = world->tools(t, base_T_flange);
@@ -153,6 +165,18 @@ struct OperatingRoom::Impl {
     }
   }
 
+  // At 10 Hz: what the emulated headset displays (its truth: what the wearer would see).
+  void recordHmd(double t) {
+    HmdTruth h{utc0 + t, {}, {}, {}};
+    for (const auto& m : hmd->displayed()) {
+      h.names.push_back(m.name);
+      h.world_T_model.push_back(compact(m.world_T_model));
+      h.visible.push_back(m.visible);
+    }
+    std::lock_guard lock(truth_mutex);
+    hmd_truth.push_back(std::move(h));
+  }
+
   void fireFaults(double t, std::vector<bool>& started, std::vector<bool>& ended) {
     for (std::size_t i = 0; i < scenario.faults.size(); ++i) {
       const Fault& f = scenario.faults[i];
@@ -167,13 +191,21 @@ struct OperatingRoom::Impl {
             what += " (no robot in the scenario)";
           }
         }
+        if (f.kind == FaultKind::HmdDisconnect) {
+          if (hmd) {
+            hmd->stop();
+          } else {
+            what += " (no headset in the scenario)";
+          }
+        }
         if (f.kind == FaultKind::Occlusion) what += " " + f.tool;
         event(t, what);
       }
-      const bool has_end =
-          f.kind == FaultKind::Occlusion || f.kind == FaultKind::TrackerDisconnect || f.kind == FaultKind::VideoFreeze;
+      const bool has_end = f.kind == FaultKind::Occlusion || f.kind == FaultKind::TrackerDisconnect ||
+                           f.kind == FaultKind::VideoFreeze || f.kind == FaultKind::HmdDisconnect;
       if (has_end && started[i] && !ended[i] && t >= f.at_s + f.duration_s) {
         ended[i] = true;
+        if (f.kind == FaultKind::HmdDisconnect && hmd) hmd->start();
         if (f.kind == FaultKind::TrackerDisconnect) {
           try {
             plus->start();
@@ -342,6 +374,18 @@ void OperatingRoom::start() {
       throw;
     }
   }
+  if (s.hmd.enabled) {
+    // The headset keeps trying to reach the workstation's hologram stream, as a HoloLens app does.
+    HmdEmulatorOptions hmd;
+    hmd.host = s.hmd.host;
+    hmd.port = s.hmd.port;
+    hmd.unity = s.hmd.unity;
+    hmd.drift_mm_per_min = s.hmd.drift_mm_per_min;
+    hmd.jitter_mm = s.hmd.jitter_mm;
+    hmd.seed = s.seed;
+    impl_->hmd = std::make_unique<HmdEmulator>(hmd);
+    impl_->hmd->start();
+  }
   impl_->t0 = Clock::now();
   impl_->utc0 = utcNow();
   impl_->running = true;
@@ -361,6 +405,7 @@ void OperatingRoom::stop() {
   }
   if (impl_->ur) impl_->ur->stop();
   if (impl_->plus) impl_->plus->stop();
+  if (impl_->hmd) impl_->hmd->stop();
 }
 
 bool OperatingRoom::finished() const {
@@ -388,6 +433,12 @@ OperatingRoomStats OperatingRoom::stats() const {
     s = impl_->stats;
   }
   if (impl_->running || impl_->t0 != Clock::time_point{}) s.elapsed_s = impl_->elapsed();
+  if (impl_->hmd) {
+    const auto h = impl_->hmd->stats();
+    s.hmd_connected = h.connected;
+    s.hmd_transforms = h.transforms;
+    s.hmd_meshes = h.meshes;
+  }
   if (impl_->plus) {
     const auto p = impl_->plus->stats();
     s.transform_messages = p.transform_messages;
@@ -427,6 +478,12 @@ void OperatingRoom::writeTruth(const std::filesystem::path& path) const {
           {{"utc", f.utc}, {"content_t", f.content_t}, {"tracker_T_image", f.tracker_T_image}, {"frozen", f.frozen}});
     }
     j["video_frames"] = frames;
+    Json displayed = Json::array();
+    for (const auto& h : impl_->hmd_truth) {
+      displayed.push_back(
+          {{"utc", h.utc}, {"models", h.names}, {"world_T_model", h.world_T_model}, {"visible", h.visible}});
+    }
+    j["hmd_displayed"] = displayed;
     Json events = Json::array();
     for (const auto& e : impl_->events) events.push_back({{"t", e.t}, {"utc", e.utc}, {"event", e.what}});
     j["events"] = events;

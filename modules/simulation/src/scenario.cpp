@@ -380,7 +380,8 @@ Fault readFault(const Node& n) {
                               {"tracker_disconnect", FaultKind::TrackerDisconnect},
                               {"patient_shift", FaultKind::PatientShift},
                               {"video_freeze", FaultKind::VideoFreeze},
-                              {"robot_protective_stop", FaultKind::RobotProtectiveStop}});
+                              {"robot_protective_stop", FaultKind::RobotProtectiveStop},
+                              {"hmd_disconnect", FaultKind::HmdDisconnect}});
   f.at_s = n.number("at_s", 0.0, 0.0, 86400.0);
   switch (f.kind) {
     case FaultKind::Occlusion:
@@ -390,6 +391,7 @@ Fault readFault(const Node& n) {
       break;
     case FaultKind::TrackerDisconnect:
     case FaultKind::VideoFreeze:
+    case FaultKind::HmdDisconnect:
       n.allow({"kind", "at_s", "duration_s"});
       f.duration_s = n.number("duration_s", 1.0, 0.0, 86400.0);
       break;
@@ -415,7 +417,7 @@ Scenario parseScenario(const std::string& json_text, const std::filesystem::path
   }
   const Node root(json, "", source);
   root.allow({"format", "name", "description", "seed", "duration_s", "tracker", "tools", "nwire_phantom", "patient",
-              "ultrasound", "robot", "faults", "replay"});
+              "ultrasound", "robot", "hmd", "faults", "replay"});
   const std::string format = root.required("format");
   if (format != "mrsns-scenario/1") {
     root.failKey("format", "is '" + format + "'; this mrsns-sim reads 'mrsns-scenario/1'");
@@ -469,6 +471,17 @@ Scenario parseScenario(const std::string& json_text, const std::filesystem::path
   }
   if (root.has("ultrasound")) s.ultrasound = readUltrasound(root.child("ultrasound"));
   if (root.has("robot")) s.robot = readRobot(root.child("robot"));
+  if (root.has("hmd")) {
+    const Node n = root.child("hmd");
+    n.allow({"enabled", "host", "port", "unity", "drift_mm_per_min", "jitter_mm"});
+    s.hmd.enabled = n.boolean("enabled", true);
+    s.hmd.host = n.text("host", s.hmd.host);
+    if (s.hmd.host.empty()) n.failKey("host", "must name the workstation's address");
+    s.hmd.port = static_cast<std::uint16_t>(n.integer("port", s.hmd.port, 1, 65535));
+    s.hmd.unity = n.boolean("unity", false);
+    s.hmd.drift_mm_per_min = n.number("drift_mm_per_min", 0.0, 0.0, 1000.0);
+    s.hmd.jitter_mm = n.number("jitter_mm", 0.0, 0.0, 100.0);
+  }
   for (const auto& f : root.array("faults")) {
     s.faults.push_back(readFault(f));
     if (s.faults.back().kind == FaultKind::Occlusion && !names.count(s.faults.back().tool)) {
@@ -506,8 +519,8 @@ Scenario parseScenario(const std::string& json_text, const std::filesystem::path
     throw FormatError(source + ": '" + s.robot.marker_tool +
                       "' is the robot's marker (robot.marker_tool): it moves with the arm, leave it out of 'tools'");
   }
-  if (s.tools.empty() && !s.replay && !s.robot.enabled) {
-    throw FormatError(source + ": the scenario has no tools, no robot and no replay: nothing to serve");
+  if (s.tools.empty() && !s.replay && !s.robot.enabled && !s.hmd.enabled) {
+    throw FormatError(source + ": the scenario has no tools, no robot, no headset and no replay: nothing to serve");
   }
   return s;
 }
@@ -527,6 +540,7 @@ const char* toString(FaultKind kind) {
     case FaultKind::PatientShift: return "patient_shift";
     case FaultKind::VideoFreeze: return "video_freeze";
     case FaultKind::RobotProtectiveStop: return "robot_protective_stop";
+    case FaultKind::HmdDisconnect: return "hmd_disconnect";
   }
   return "?";
 }

@@ -46,16 +46,16 @@ struct BModeGeometry {
 
 /// The image-formation and noise model (stated beside every simulated figure).
 struct BModeNoiseModel {
-  double tissue_echo = 70.0;      ///< mean grey level of soft tissue at the face
-  double lumen_echo = 8.0;        ///< mean grey level inside the vessel lumen
-  double water_echo = 3.0;        ///< mean grey level of the water bath
-  double bone_echo = 230.0;       ///< the bright bone surface
-  double wire_echo = 220.0;       ///< peak of a wire's dot
+  double tissue_echo = 70.0;           ///< mean grey level of soft tissue at the face
+  double lumen_echo = 8.0;             ///< mean grey level inside the vessel lumen
+  double water_echo = 3.0;             ///< mean grey level of the water bath
+  double bone_echo = 230.0;            ///< the bright bone surface
+  double wire_echo = 220.0;            ///< peak of a wire's dot
   double attenuation_db_per_cm = 1.0;  ///< round trip, tissue only (water: none)
-  double lateral_psf_mm = 0.35;   ///< Gaussian sigma of the point spread, lateral
-  double axial_psf_mm = 0.2;      ///< Gaussian sigma, axial
-  bool speckle = true;            ///< Rayleigh speckle, correlated over the PSF
-  double electronic_noise = 2.0;  ///< additive Gaussian grey-level sigma
+  double lateral_psf_mm = 0.35;        ///< Gaussian sigma of the point spread, lateral
+  double axial_psf_mm = 0.2;           ///< Gaussian sigma, axial
+  bool speckle = true;                 ///< Rayleigh speckle, correlated over the PSF
+  double electronic_noise = 2.0;       ///< additive Gaussian grey-level sigma
 };
 
 /// Renders one 8-bit frame (row-major, width * height) of `scene` in the

@@ -1,7 +1,8 @@
 #pragma once
 // The simulated operating room: the world stepped in real time behind the
 // devices' own protocols (a PlusServer for tracking and B-mode video, a UR
-// controller for the arm), faults fired on schedule, and the truth recorded
+// controller for the arm; an emulated headset as a client of the workstation's
+// hologram stream), faults fired on schedule, and the truth recorded
 // for `mrsns-sim score` only. Or, in replay mode, a PLUS recording served on
 // the same wire.
 #include <cstdint>
@@ -28,6 +29,9 @@ struct OperatingRoomStats {
   double max_frame_render_ms = 0.0;
   std::uint64_t tracker_overruns = 0;  ///< ticks that started later than one period after their time
   std::uint64_t replayed_frames = 0;
+  bool hmd_connected = false;        ///< the emulated headset is connected to the hologram stream
+  std::uint64_t hmd_meshes = 0;      ///< models it received
+  std::uint64_t hmd_transforms = 0;  ///< poses it displayed
 };
 
 /// Where the devices listen once started (ports chosen by the OS when the scenario said 0).

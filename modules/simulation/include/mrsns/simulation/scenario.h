@@ -160,12 +160,22 @@ struct RobotSpec {
   std::array<double, 6> start_joints{0.0, -1.5708, 1.5708, -1.5708, -1.5708, 0.0};
 };
 
-enum class FaultKind { Occlusion, TrackerDisconnect, PatientShift, VideoFreeze, RobotProtectiveStop };
+/// The emulated headset: a client of the workstation's hologram stream.
+struct HmdSpec {
+  bool enabled = false;
+  std::string host = "127.0.0.1";
+  std::uint16_t port = 18945;  ///< the workstation's hologram stream (`mrsns-cli serve`, the GUI's stream)
+  bool unity = false;          ///< the stream is in the Unity convention
+  double drift_mm_per_min = 0.0;
+  double jitter_mm = 0.0;
+};
+
+enum class FaultKind { Occlusion, TrackerDisconnect, PatientShift, VideoFreeze, RobotProtectiveStop, HmdDisconnect };
 
 struct Fault {
   FaultKind kind = FaultKind::Occlusion;
   double at_s = 0.0;
-  double duration_s = 0.0;  ///< occlusion, tracker_disconnect, video_freeze
+  double duration_s = 0.0;  ///< occlusion, tracker_disconnect, video_freeze, hmd_disconnect
   std::string tool;         ///< occlusion
   /// patient_shift: applied to the patient (and, unless relative_to_reference, to its reference marker).
   Eigen::Isometry3d shift = Eigen::Isometry3d::Identity();
@@ -189,6 +199,7 @@ struct Scenario {
   std::optional<PatientSpec> patient;
   UltrasoundSpec ultrasound;
   RobotSpec robot;
+  HmdSpec hmd;
   std::vector<Fault> faults;
   std::optional<ReplaySpec> replay;
 };
