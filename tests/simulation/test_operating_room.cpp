@@ -16,6 +16,7 @@
 #include "mrsns/igtlink/client.h"
 #include "mrsns/io/device_set.h"
 #include "mrsns/io/sequence_file.h"
+#include "mrsns/robot/dashboard_client.h"
 #include "mrsns/simulation/operating_room.h"
 #include "mrsns/simulation/scenario.h"
 #include "mrsns/tracking/igtl_source.h"
@@ -145,6 +146,50 @@ TEST(OperatingRoom, FaultsAppearOnTheWireAtTheirScheduledTimes) {
   EXPECT_GE(disconnect.second, 2.0 - period);
   EXPECT_LE(disconnect.second, 2.0 + 0.25);
   EXPECT_EQ(room.stats().faults_fired, 4u) << "two starts and two ends";
+}
+
+TEST(OperatingRoom, APatientShiftMovesTheReferenceOnTheWireAndAProtectiveStopReachesTheController) {
+  auto scenario = parseScenario(R"({"format": "mrsns-scenario/1", "tracker": {"port": 0,
+      "noise": {"position_rms_mm": 0.12, "orientation_rms_deg": 0.0}},
+      "tools": [)" + tool("ReferenceToTracker", 0) +
+                                    R"(],
+      "patient": {"generated_phantom": {"spacing_mm": 2.0}, "reference_tool": "ReferenceToTracker"},
+      "robot": {"ports": {"rtde": 0, "dashboard": 0, "secondary": 0, "realtime": 0},
+                "base_to_tracker": {"translation_mm": [400, 300, -1450]}},
+      "faults": [{"kind": "patient_shift", "at_s": 0.8, "shift": {"translation_mm": [0, 0, 8]}},
+                 {"kind": "robot_protective_stop", "at_s": 1.2}],
+      "duration_s": 2.0})",
+                                ".");
+  OperatingRoom room(scenario);
+  room.start();
+  Recorder recorder(room.endpoints().plus_port);
+  robot::DashboardClientOptions dashboard_options;
+  dashboard_options.port = room.endpoints().dashboard_port;
+  robot::DashboardClient dashboard(dashboard_options);
+  EXPECT_EQ(dashboard.safetyStatus(), robot::UrSafetyMode::Normal);
+  std::this_thread::sleep_for(1500ms);
+  EXPECT_EQ(dashboard.safetyStatus(), robot::UrSafetyMode::ProtectiveStop) << "the scheduled protective stop";
+  while (!room.finished()) std::this_thread::sleep_for(20ms);
+  room.stop();
+  const auto dir = test::scratchDirectory("shift");
+  room.writeTruth(dir / "truth.json");
+  const double utc0 = readJson(dir / "truth.json")["utc_start"].get<double>();
+  // The reference marker (the whole patient) moves 8 mm along z at 0.8 s; 0.12 mm noise around each side.
+  int before = 0, after = 0;
+  for (const auto& m : recorder.messages()) {
+    if (m.header.device_name != "ReferenceToTracker") continue;
+    const double t = m.header.timestampSeconds() - utc0;
+    const double z = m.as<igtlink::TransformContent>()->matrix(2, 3);
+    if (t < 0.8 - 1.0 / 60.0) {
+      EXPECT_NEAR(z, -1400.0, 1.0) << t;
+      ++before;
+    } else if (t > 0.8 + 1.0 / 60.0) {
+      EXPECT_NEAR(z, -1392.0, 1.0) << t;
+      ++after;
+    }
+  }
+  EXPECT_GT(before, 20);
+  EXPECT_GT(after, 20);
 }
 
 TEST(OperatingRoom, TheTruthFileHoldsTheTruePosesAndTheyMatchTheMeasuredOnesWithinTheNoise) {
