@@ -448,7 +448,8 @@ Scenario parseScenario(const std::string& json_text, const std::filesystem::path
   }
   if (root.has("patient")) {
     const Node n = root.child("patient");
-    n.allow({"generated_phantom", "labels", "vessel_labels", "ignored_labels", "reference_tool", "ct_to_reference"});
+    n.allow({"generated_phantom", "labels", "vessel_labels", "ignored_labels", "reference_tool", "ct_to_reference",
+             "soft_tissue"});
     PatientSpec p;
     if (n.has("labels") == n.has("generated_phantom")) {
       n.fail("needs exactly one of 'generated_phantom' ({\"spacing_mm\": 0.8}) or 'labels' (a label map file)");
@@ -467,6 +468,17 @@ Scenario parseScenario(const std::string& json_text, const std::filesystem::path
     p.reference_tool = n.text("reference_tool", p.reference_tool);
     checkToolName(n, "reference_tool", p.reference_tool);
     p.reference_T_ct = n.pose("ct_to_reference", p.reference_T_ct);
+    if (n.has("soft_tissue")) {
+      const Node t = n.child("soft_tissue");
+      t.allow({"shape_model", "model_to_ct", "modes", "amplitude_sd", "period_s"});
+      SoftTissueSpec tissue;
+      tissue.shape_model = filePath(t, "shape_model", base_dir);
+      tissue.ct_T_model = t.pose("model_to_ct", tissue.ct_T_model);
+      tissue.modes = t.integer("modes", tissue.modes, 0, 1000);
+      tissue.amplitude_sd = t.number("amplitude_sd", tissue.amplitude_sd, 0.0, 5.0);
+      tissue.period_s = t.number("period_s", tissue.period_s, 0.1, 86400.0);
+      p.soft_tissue = tissue;
+    }
     s.patient = p;
   }
   if (root.has("ultrasound")) s.ultrasound = readUltrasound(root.child("ultrasound"));

@@ -10,7 +10,9 @@
 #include "mrsns/core/rigid.h"
 #include "mrsns/io/device_set.h"
 #include "mrsns/io/image_io.h"
+#include "mrsns/io/statismo_io.h"
 #include "mrsns/registration/phantom_cervical.h"
+#include "mrsns/simulation/soft_tissue.h"
 
 namespace mrsns::simulation {
 
@@ -67,6 +69,7 @@ struct World::Patient {
   ImageVolume labels;
   Eigen::Matrix4d lps_to_ijk = Eigen::Matrix4d::Identity();
   std::vector<int> vessel_labels, ignored_labels;
+  std::unique_ptr<DeformingSoftTissue> soft_tissue;
 
   // Signed distance (mm) to the bone or the vessel: exact for the generated
   // phantom; for a label map, +/- half a voxel from the label lookup (its sign
@@ -149,6 +152,10 @@ World::World(const Scenario& scenario) : scenario_(scenario) {
       patient_->lps_to_ijk = patient_->labels.ijkToLps().inverse();
       patient_->vessel_labels = spec.vessel_labels;
       patient_->ignored_labels = spec.ignored_labels;
+    }
+    if (spec.soft_tissue) {
+      patient_->soft_tissue = std::make_unique<DeformingSoftTissue>(
+          io::readStatismoModel(spec.soft_tissue->shape_model), *spec.soft_tissue, scenario_.seed);
     }
   }
   if (scenario_.nwire_phantom) {
@@ -382,7 +389,14 @@ EchoScene World::echoScene(double t) const {
     scene.bone_distance_mm = [patient, ct_T_tracker](const Eigen::Vector3d& p) {
       return patient->boneDistance(ct_T_tracker * p);
     };
-    if (patient->phantom || !patient->vessel_labels.empty()) {
+    if (patient->soft_tissue) {
+      // The deforming vessel of the shape model, as it is at this instant.
+      const auto surface = patient->soft_tissue->surfaceAt(t);
+      const Eigen::Isometry3d model_T_tracker = patient->soft_tissue->ctTModel().inverse() * ct_T_tracker;
+      scene.vessel_distance_mm = [surface, model_T_tracker](const Eigen::Vector3d& p) {
+        return surface->signedClosestPoint(model_T_tracker * p, true).signed_distance;
+      };
+    } else if (patient->phantom || !patient->vessel_labels.empty()) {
       scene.vessel_distance_mm = [patient, ct_T_tracker](const Eigen::Vector3d& p) {
         return patient->vesselDistance(ct_T_tracker * p);
       };
@@ -414,6 +428,7 @@ std::string World::staticTruthJson() const {
     if (tool.tip_tool) tips[tool.name] = {tool.tip_tool->x(), tool.tip_tool->y(), tool.tip_tool->z()};
   }
   j["tool_tips_mm"] = tips;
+  if (patient_ && patient_->soft_tissue) j["soft_tissue"] = nlohmann::json::parse(patient_->soft_tissue->truthJson());
   if (patient_ && patient_->phantom) {
     nlohmann::json fiducials = nlohmann::json::array();
     for (const auto& s : patient_->phantom->screws) {

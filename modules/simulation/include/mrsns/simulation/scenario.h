@@ -115,6 +115,19 @@ struct NWirePhantomSpec {
   double bath_margin_mm = 30.0;  ///< the bath extends this far beyond the wires
 };
 
+/// The critical soft tissue (the vessel) as a statistical shape model whose
+/// shape changes over time: the first `modes` coefficients follow seeded
+/// sinusoids of `amplitude_sd` standard deviations around the mean, each with
+/// a period of `period_s` times a factor drawn in [0.7, 1.3]. It replaces the
+/// generated phantom's straight vessel or the label map's vessel labels.
+struct SoftTissueSpec {
+  std::filesystem::path shape_model;  ///< statismo .h5 (io::readStatismoModel)
+  Eigen::Isometry3d ct_T_model = Eigen::Isometry3d::Identity();
+  int modes = 3;
+  double amplitude_sd = 1.0;
+  double period_s = 20.0;
+};
+
 /// The patient: the generated cervical phantom, or a CT's label map.
 struct PatientSpec {
   bool generated = true;
@@ -125,6 +138,7 @@ struct PatientSpec {
   std::string reference_tool = "ReferenceToTracker";
   /// Where the CT sits relative to the reference marker (the truth a registration estimates).
   Eigen::Isometry3d reference_T_ct = Eigen::Isometry3d::Identity();
+  std::optional<SoftTissueSpec> soft_tissue;
 };
 
 struct UltrasoundSpec {
