@@ -38,6 +38,9 @@ TEST_F(SimulatedRoomTest, StartConnectAndStopFromTheDevicesMenu) {
   for (const char* tool : {"ProbeToTracker", "StylusToTracker", "PatientToTracker", "ReferenceToTracker"}) {
     EXPECT_TRUE(step["figures"]["tools"].contains(tool)) << tool;
   }
+  auto* status = window->findChild<QLabel*>("status_connect-devices");
+  ASSERT_NE(status, nullptr);
+  EXPECT_TRUE(status->text().contains("simulated")) << status->text().toStdString();
   const auto png = mrsns::test::guiArtifactDir() / "main_window_simulated_room_connected.png";
   EXPECT_TRUE(window->saveScreenshot(QString::fromStdString(png.string()))) << messages();
 

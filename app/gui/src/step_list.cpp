@@ -86,10 +86,8 @@ const nlohmann::json* findLeaf(const nlohmann::json& figures, const char* needle
   return nullptr;
 }
 
-}  // namespace
-
-QString stepHeadline(const nlohmann::json& figures) {
-  if (!figures.is_object()) return {};
+// The step's headline figure, or empty.
+QString figureHeadline(const nlohmann::json& figures) {
   std::string key;
   // A validation figure, when the step has one, is the one that judges it
   // (the US calibration: the held-out sequence, not the fitted one).
@@ -104,6 +102,19 @@ QString stepHeadline(const nlohmann::json& figures) {
     }
   }
   return {};
+}
+
+}  // namespace
+
+QString stepHeadline(const nlohmann::json& figures) {
+  if (!figures.is_object()) return {};
+  const QString figure = figureHeadline(figures);
+  // A result from a simulated device says so wherever it is shown.
+  const auto simulated = figures.find("simulated");
+  if (simulated != figures.end() && simulated->is_boolean() && simulated->get<bool>()) {
+    return figure.isEmpty() ? QStringLiteral("simulated") : figure + QStringLiteral(" (simulated)");
+  }
+  return figure;
 }
 
 }  // namespace mrsns::gui
