@@ -417,7 +417,7 @@ Scenario parseScenario(const std::string& json_text, const std::filesystem::path
   }
   const Node root(json, "", source);
   root.allow({"format", "name", "description", "seed", "duration_s", "tracker", "tools", "nwire_phantom", "patient",
-              "ultrasound", "robot", "hmd", "faults", "replay"});
+              "flat_target", "ultrasound", "robot", "hmd", "faults", "replay"});
   const std::string format = root.required("format");
   if (format != "mrsns-scenario/1") {
     root.failKey("format", "is '" + format + "'; this mrsns-sim reads 'mrsns-scenario/1'");
@@ -481,6 +481,23 @@ Scenario parseScenario(const std::string& json_text, const std::filesystem::path
     }
     s.patient = p;
   }
+  if (root.has("flat_target")) {
+    const Node n = root.child("flat_target");
+    n.allow({"frame", "pose", "half_size_mm", "water_depth_mm"});
+    FlatTargetSpec f;
+    f.frame = poseFrame(n, "frame");
+    f.pose = n.pose("pose", f.pose);
+    if (n.has("half_size_mm")) {
+      const auto& v = n.json().at("half_size_mm");
+      if (!v.is_array() || v.size() != 2 || !v[0].is_number() || !v[1].is_number() || v[0].get<double>() <= 0.0 ||
+          v[1].get<double>() <= 0.0) {
+        n.failKey("half_size_mm", "must be [x, y], both positive");
+      }
+      f.half_size_mm = Eigen::Vector2d(v[0].get<double>(), v[1].get<double>());
+    }
+    f.water_depth_mm = n.number("water_depth_mm", f.water_depth_mm, 1.0, 1000.0);
+    s.flat_target = f;
+  }
   if (root.has("ultrasound")) s.ultrasound = readUltrasound(root.child("ultrasound"));
   if (root.has("robot")) s.robot = readRobot(root.child("robot"));
   if (root.has("hmd")) {
@@ -521,8 +538,9 @@ Scenario parseScenario(const std::string& json_text, const std::filesystem::path
   };
   if (s.ultrasound.enabled) {
     needTool(s.ultrasound.probe_tool, "'ultrasound'");
-    if (!s.nwire_phantom && !s.patient) {
-      throw FormatError(source + ": 'ultrasound' has nothing to image: add 'nwire_phantom' or 'patient'");
+    if (!s.nwire_phantom && !s.patient && !s.flat_target) {
+      throw FormatError(source +
+                        ": 'ultrasound' has nothing to image: add 'nwire_phantom', 'patient' or 'flat_target'");
     }
   }
   if (s.patient && !s.replay) needTool(s.patient->reference_tool, "'patient'");

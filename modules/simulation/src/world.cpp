@@ -383,11 +383,31 @@ EchoScene World::echoScene(double t) const {
     if (bath_phantom_)
       scene.water_bath = EchoBox{tracker_T_phantom * bath_phantom_->scene_T_box, bath_phantom_->half_extent_mm};
   }
+  if (scenario_.flat_target) {
+    // A plate at the bottom of a water tank: a strong flat reflector under water, as the temporal calibration
+    // uses. Its signed distance is exact (a box), so the renderer's distance lattice may rely on it.
+    const auto& f = *scenario_.flat_target;
+    const Eigen::Isometry3d target_T_tracker = (frameInTracker(f.frame, t) * f.pose).inverse();
+    const Eigen::Vector3d half(f.half_size_mm.x(), f.half_size_mm.y(), 5.0);
+    scene.bone_distance_mm = [target_T_tracker, half](const Eigen::Vector3d& p) {
+      const Eigen::Vector3d q = (target_T_tracker * p - Eigen::Vector3d(0, 0, -5.0)).cwiseAbs() - half;
+      return q.cwiseMax(0.0).norm() + std::min(q.maxCoeff(), 0.0);
+    };
+    if (!scene.water_bath) {
+      EchoBox tank;
+      tank.scene_T_box = frameInTracker(f.frame, t) * f.pose;
+      tank.scene_T_box.translation() += tank.scene_T_box.linear() * Eigen::Vector3d(0, 0, 0.5 * f.water_depth_mm);
+      tank.half_extent_mm = Eigen::Vector3d(f.half_size_mm.x(), f.half_size_mm.y(), 0.5 * f.water_depth_mm);
+      scene.water_bath = tank;
+    }
+  }
   if (patient_) {
     const Eigen::Isometry3d ct_T_tracker = trackerTCt(t).inverse();
     const Patient* patient = patient_.get();
-    scene.bone_distance_mm = [patient, ct_T_tracker](const Eigen::Vector3d& p) {
-      return patient->boneDistance(ct_T_tracker * p);
+    auto target = scene.bone_distance_mm;  // a flat target, if any: the union of both reflectors
+    scene.bone_distance_mm = [patient, ct_T_tracker, target](const Eigen::Vector3d& p) {
+      const double bone = patient->boneDistance(ct_T_tracker * p);
+      return target ? std::min(bone, target(p)) : bone;
     };
     if (patient->soft_tissue) {
       // The deforming vessel of the shape model, as it is at this instant.

@@ -115,6 +115,16 @@ struct NWirePhantomSpec {
   double bath_margin_mm = 30.0;  ///< the bath extends this far beyond the wires
 };
 
+/// A flat target at the bottom of a water tank, for the temporal calibration:
+/// a plate whose top face is the plane z = 0 of `pose` (normal +z, towards
+/// the probe), `half_size_mm` across, 10 mm thick, with water above it.
+struct FlatTargetSpec {
+  PoseFrame frame = PoseFrame::Tracker;
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  Eigen::Vector2d half_size_mm = Eigen::Vector2d(100.0, 100.0);
+  double water_depth_mm = 80.0;
+};
+
 /// The critical soft tissue (the vessel) as a statistical shape model whose
 /// shape changes over time: the first `modes` coefficients follow seeded
 /// sinusoids of `amplitude_sd` standard deviations around the mean, each with
@@ -210,6 +220,7 @@ struct Scenario {
   TrackerSpec tracker;
   std::vector<ToolSpec> tools;
   std::optional<NWirePhantomSpec> nwire_phantom;
+  std::optional<FlatTargetSpec> flat_target;
   std::optional<PatientSpec> patient;
   UltrasoundSpec ultrasound;
   RobotSpec robot;
