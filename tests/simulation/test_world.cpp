@@ -80,6 +80,47 @@ TEST(World, HandTremorHasItsRmsInTheEightToTwelveHertzBand) {
   EXPECT_LE(hz, 12.0);
 }
 
+TEST(World, TheHandMisjudgesDepthAlongTheToolAndHoldsForVaryingTimes) {
+  // 200 touches of alternating targets 20 mm apart, each a move then a hold at the same pose.
+  std::string motion;
+  const int touches = 200;
+  for (int i = 0; i < touches; ++i) {
+    const std::string pose = R"({"translation_mm": [)" + std::to_string(i % 2 ? 20 : 0) + R"(, 0, -1200]})";
+    motion += std::string(i ? ", " : "") + R"({"kind": "move", "duration_s": 0.5, "pose": )" + pose +
+              R"(}, {"kind": "hold", "duration_s": 1.0, "pose": )" + pose + "}";
+  }
+  const auto s = scenarioWith(R"({"name": "StylusToTracker", )" + kInVolume + R"(,
+      "hand": {"depth_misperception_mm": 1.5, "dwell_jitter_s": 0.3}, "motion": [)" +
+                              motion + "]}");
+  const World world(s);
+  // Where each touch ends: just before the next move starts, found by scanning for the motion's pauses.
+  double sum2 = 0.0, off_axis = 0.0;
+  int holds = 0;
+  bool moving = true;
+  double t_end = 0.0;
+  Eigen::Vector3d last = world.tools(0.0, std::nullopt)[0].tracker_T_tool.translation();
+  for (double t = 0.01; t < 400.0; t += 0.01) {
+    const Eigen::Vector3d p = world.tools(t, std::nullopt)[0].tracker_T_tool.translation();
+    const bool still = (p - last).norm() < 1e-9;
+    if (still && moving) {
+      // A hold: the tool stands at its target, off by the misperceived depth along z (the tool's axis).
+      off_axis = std::max(off_axis, std::min(std::abs(p.x()), std::abs(p.x() - 20.0)) + std::abs(p.y()));
+      sum2 += (p.z() + 1200.0) * (p.z() + 1200.0);
+      ++holds;
+    }
+    if (!still) t_end = t;  // the last instant of motion: the end of the last move
+    moving = !still;
+    last = p;
+  }
+  ASSERT_GE(holds, touches - 2);
+  EXPECT_LT(off_axis, 1e-9) << "the error is along the tool's axis only";
+  // RMS of 200 draws of N(0, 1.5): 1.5 mm within ~4 standard errors (1.5 / sqrt(400)).
+  EXPECT_NEAR(std::sqrt(sum2 / holds), 1.5, 0.3);
+  // The last move ends after 199 holds of 0.3 s jitter each: sqrt(199) * 0.3 = 4.2 s (1 SD) off the script's 299 s.
+  EXPECT_GT(std::abs(t_end - 299.0), 0.05) << "the holds did not vary";
+  EXPECT_LT(std::abs(t_end - 299.0), 4.0 * 4.3);
+}
+
 TEST(World, VisibilityFollowsTheVolumeTheLineOfSightAndTheFaults) {
   const auto s = scenarioWith(
       R"({"name": "StylusToTracker", )" + kInVolume + R"(},

@@ -239,8 +239,8 @@ MotionSegment readSegment(const Node& n) {
 }
 
 HandModel readHand(const Node& n) {
-  n.allow(
-      {"tremor_rms_mm", "tremor_hz", "tremor_rotation_rms_deg", "drift_mm", "drift_hz", "slips_per_min", "slip_mm"});
+  n.allow({"tremor_rms_mm", "tremor_hz", "tremor_rotation_rms_deg", "drift_mm", "drift_hz", "slips_per_min", "slip_mm",
+           "dwell_jitter_s", "depth_misperception_mm"});
   HandModel h;
   h.tremor_rms_mm = n.number("tremor_rms_mm", 0.0, 0.0, 20.0);
   if (n.has("tremor_hz")) {
@@ -259,6 +259,8 @@ HandModel readHand(const Node& n) {
   h.drift_hz = n.number("drift_hz", h.drift_hz, 1e-4, 5.0);
   h.slips_per_min = n.number("slips_per_min", 0.0, 0.0, 600.0);
   h.slip_mm = n.number("slip_mm", h.slip_mm, 0.0, 100.0);
+  h.dwell_jitter_s = n.number("dwell_jitter_s", 0.0, 0.0, 60.0);
+  h.depth_misperception_mm = n.number("depth_misperception_mm", 0.0, 0.0, 50.0);
   return h;
 }
 

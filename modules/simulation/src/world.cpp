@@ -50,7 +50,9 @@ const char* toString(Visibility v) {
 
 // One tool's timeline: segment start times and the seeded hand.
 struct World::ToolTimeline {
-  std::vector<double> starts;  // start time of each segment
+  std::vector<double> starts;        // start time of each segment
+  std::vector<double> durations;     // each segment's duration, with the hand's dwell jitter
+  std::vector<double> depth_offset;  // the depth misperceived at each segment's target (mm, tool z)
   Eigen::Vector3d tremor_hz = Eigen::Vector3d::Zero();
   Eigen::Vector3d tremor_phase = Eigen::Vector3d::Zero();
   Eigen::Vector3d rot_tremor_phase = Eigen::Vector3d::Zero();
@@ -110,12 +112,25 @@ World::World(const Scenario& scenario) : scenario_(scenario) {
   for (std::size_t i = 0; i < scenario_.tools.size(); ++i) {
     const auto& tool = scenario_.tools[i];
     auto tl = std::make_unique<ToolTimeline>();
+    const auto& h = tool.hand;
+    std::normal_distribution<double> gauss(0.0, 1.0);
     double t = 0.0;
     for (const auto& seg : tool.motion) {
+      double duration = seg.duration_s;
+      if (seg.kind == MotionKind::Hold && h.dwell_jitter_s > 0.0) {
+        duration = std::max(0.2 * duration, duration + h.dwell_jitter_s * gauss(rng));
+      }
+      // One misperceived depth per target: a hold at the pose a move just reached keeps that move's error.
+      const std::size_t k = tl->depth_offset.size();
+      const MotionSegment* before = k > 0 ? &tool.motion[k - 1] : nullptr;
+      const bool same_target = before != nullptr && before->pose && seg.pose && before->frame == seg.frame &&
+                               before->pose_of == seg.pose_of && before->pose->isApprox(*seg.pose, 1e-9);
+      const double drawn = h.depth_misperception_mm > 0.0 ? h.depth_misperception_mm * gauss(rng) : 0.0;
+      tl->depth_offset.push_back(!seg.pose ? 0.0 : same_target ? tl->depth_offset[k - 1] : drawn);
       tl->starts.push_back(t);
-      t += seg.duration_s;
+      tl->durations.push_back(duration);
+      t += duration;
     }
-    const auto& h = tool.hand;
     for (int a = 0; a < 3; ++a) {
       tl->tremor_hz[a] = h.tremor_min_hz + (h.tremor_max_hz - h.tremor_min_hz) * uniform(rng);
       tl->tremor_phase[a] = kTwoPi * uniform(rng);
@@ -248,16 +263,18 @@ Eigen::Isometry3d World::toolPose(std::size_t index, double t) const {
   Eigen::Isometry3d pose = resolve(previous);
   for (std::size_t s = 0; s < tool.motion.size(); ++s) {
     const MotionSegment& seg = tool.motion[s];
-    const Key target = seg.pose ? Key{seg.frame, *seg.pose, seg.pose_of} : previous;
+    Key target = seg.pose ? Key{seg.frame, *seg.pose, seg.pose_of} : previous;
+    if (tl.depth_offset[s] != 0.0) target.pose = target.pose * Eigen::Translation3d(0.0, 0.0, tl.depth_offset[s]);
+    const double duration = tl.durations[s];
     const double local = t - tl.starts[s];
-    if (local >= seg.duration_s) {
+    if (local >= duration) {
       // Finished: the segment's end pose is the next one's start.
       if (seg.kind == MotionKind::Hold || seg.kind == MotionKind::Move) previous = target;
       pose = resolve(previous);
       continue;
     }
     if (local < 0.0) break;
-    const double u = local / seg.duration_s;
+    const double u = local / duration;
     const Eigen::Isometry3d from = resolve(previous);
     switch (seg.kind) {
       case MotionKind::Hold: pose = resolve(target); break;

@@ -54,6 +54,11 @@ struct HandModel {
   double drift_hz = 0.05;
   double slips_per_min = 0.0;  ///< sudden displacements that the hand corrects in ~0.5 s
   double slip_mm = 2.0;
+  /// SD of how long each hold lasts around its scripted duration (s): people do not count.
+  double dwell_jitter_s = 0.0;
+  /// SD of the depth error at each target of a hold or move (mm, along the tool's z axis): where the operator
+  /// believes the tip touches.
+  double depth_misperception_mm = 0.0;
 };
 
 struct ToolSpec {
