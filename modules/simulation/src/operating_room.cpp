@@ -99,10 +99,10 @@ struct OperatingRoom::Impl {
 
   [[nodiscard]] double elapsed() const { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
-  void event(double t, const std::string& what) {
+  void event(double t, const std::string& what, bool fault = true) {
     std::lock_guard lock(truth_mutex);
     events.push_back({t, utc0 + t, what});
-    ++stats.faults_fired;
+    if (fault) ++stats.faults_fired;
   }
 
   // Sleeps until t0 + t_s, or returns false when stopping.
@@ -136,7 +136,10 @@ struct OperatingRoom::Impl {
         break;
       }
       fireFaults(t, started, ended);
-      if (hmd && tick % 6 == 0) recordHmd(t);
+      if (hmd && tick % 6 == 0) {
+        operateHeadset(t);
+        recordHmd(t);
+      }
       std::optional<Eigen::Isometry3d> base_T_flange;
       if (ur) base_T_flange = ur->armState().base_T_flange;
       const auto truth = world->tools(t, base_T_flange);
@@ -162,6 +165,47 @@ struct OperatingRoom::Impl {
       tracker_truth.push_back(std::move(record));
       ++stats.tracker_samples;
       stats.invalid_tool_samples += invalid;
+    }
+  }
+
+  // The virtual operator at the headset: answers the workstation's prompts after the time the task takes, and
+  // confirms on the scenario's timeline. Runs at 10 Hz from the tracker thread.
+  std::uint64_t prompts_seen = 0;
+  std::vector<std::pair<double, std::string>> pending_confirmations;
+  std::vector<bool> timeline_confirmed;
+
+  void operateHeadset(double t) {
+    const auto& spec = scenario.hmd;
+    const auto received = hmd->stats().prompts;
+    if (received > prompts_seen) {
+      const auto prompts = hmd->prompts();
+      const auto fresh = std::min<std::uint64_t>(received - prompts_seen, prompts.size());
+      for (auto i = prompts.size() - fresh; i < prompts.size(); ++i) {
+        event(t, "hmd prompt: " + prompts[i], false);
+        for (const auto& r : spec.responses) {
+          if (prompts[i].find(r.prompt_contains) != std::string::npos) {
+            pending_confirmations.emplace_back(t + r.after_s, r.confirm);
+          }
+        }
+      }
+      prompts_seen = received;
+    }
+    timeline_confirmed.resize(spec.confirmations.size(), false);
+    for (std::size_t i = 0; i < spec.confirmations.size(); ++i) {
+      if (!timeline_confirmed[i] && t >= spec.confirmations[i].at_s) {
+        timeline_confirmed[i] = true;
+        pending_confirmations.emplace_back(t, spec.confirmations[i].confirm);
+      }
+    }
+    for (auto it = pending_confirmations.begin(); it != pending_confirmations.end();) {
+      if (t < it->first) {
+        ++it;
+        continue;
+      }
+      // Not connected: the operator's confirmation is lost, as a tap on a headset that lost its link would be.
+      const bool sent = hmd->confirm(it->second);
+      event(t, std::string(sent ? "hmd confirm: " : "hmd confirm lost (not connected): ") + it->second, false);
+      it = pending_confirmations.erase(it);
     }
   }
 

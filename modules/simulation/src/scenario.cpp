@@ -504,7 +504,24 @@ Scenario parseScenario(const std::string& json_text, const std::filesystem::path
   if (root.has("robot")) s.robot = readRobot(root.child("robot"));
   if (root.has("hmd")) {
     const Node n = root.child("hmd");
-    n.allow({"enabled", "host", "port", "unity", "drift_mm_per_min", "jitter_mm"});
+    n.allow({"enabled", "host", "port", "unity", "drift_mm_per_min", "jitter_mm", "respond", "confirmations"});
+    for (const auto& r : n.array("respond")) {
+      r.allow({"prompt_contains", "after_s", "confirm"});
+      HmdResponse response;
+      response.prompt_contains = r.required("prompt_contains");
+      response.after_s = r.number("after_s", response.after_s, 0.0, 3600.0);
+      response.confirm = r.required("confirm");
+      if (response.confirm.empty() || response.prompt_contains.empty()) r.fail("needs a non-empty prompt and answer");
+      s.hmd.responses.push_back(response);
+    }
+    for (const auto& c : n.array("confirmations")) {
+      c.allow({"at_s", "confirm"});
+      HmdConfirmation confirmation;
+      confirmation.at_s = c.number("at_s", 0.0, 0.0, 86400.0);
+      confirmation.confirm = c.required("confirm");
+      if (confirmation.confirm.empty()) c.failKey("confirm", "must not be empty");
+      s.hmd.confirmations.push_back(confirmation);
+    }
     s.hmd.enabled = n.boolean("enabled", true);
     s.hmd.host = n.text("host", s.hmd.host);
     if (s.hmd.host.empty()) n.failKey("host", "must name the workstation's address");

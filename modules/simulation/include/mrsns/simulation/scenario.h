@@ -190,7 +190,24 @@ struct RobotSpec {
 };
 
 /// The emulated headset: a client of the workstation's hologram stream.
+/// The operator's answer to a prompt the workstation sends to the headset:
+/// when a prompt containing `prompt_contains` arrives, the headset sends the
+/// confirmation `confirm` `after_s` later (the time to do what was asked).
+struct HmdResponse {
+  std::string prompt_contains;
+  double after_s = 2.0;
+  std::string confirm;
+};
+
+/// A confirmation the operator gives on the scenario's timeline.
+struct HmdConfirmation {
+  double at_s = 0.0;
+  std::string confirm;
+};
+
 struct HmdSpec {
+  std::vector<HmdResponse> responses;
+  std::vector<HmdConfirmation> confirmations;
   bool enabled = false;
   std::string host = "127.0.0.1";
   std::uint16_t port = 18945;  ///< the workstation's hologram stream (`mrsns-cli serve`, the GUI's stream)
