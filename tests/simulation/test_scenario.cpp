@@ -6,6 +6,7 @@
 
 #include "mrsns/core/error.h"
 #include "mrsns/simulation/scenario.h"
+#include "test_data.h"
 
 namespace mrsns::simulation {
 namespace {
@@ -86,6 +87,8 @@ TEST(Scenario, PosesFromRotationVectorOrMatrixAgree) {
 }
 
 TEST(Scenario, TheDefaultScenarioOfThePhantomTrialReads) {
+  // It places the fCal phantom of the shared data (data:plus/...).
+  MRSNS_REQUIRE_DATA(config, "plus/PlusDeviceSet_fCal_Sim_SpatialCalibration_1.2.xml");
   const auto path = std::filesystem::path(MRSNS_TEST_SOURCE_DIR) / ".." / "resources" / "scenarios" / "default.json";
   const auto s = readScenario(path);
   EXPECT_EQ(s.name, "default phantom trial");
