@@ -78,5 +78,51 @@ TEST(HmdOperator, ThePromptedOperatorConfirmsAfterTheTaskAndOnTheTimeline) {
   EXPECT_EQ(room.stats().faults_fired, 0u) << "prompts and confirmations are not faults";
 }
 
+TEST(HmdOperator, ATrackedHeadsetShowsWhereTheWearerSeesEachModelInTheTrackerFrame) {
+  // The workstation streams one pose; the headset (anchored at its marker, no drift) displays it.
+  Eigen::Isometry3d hologram_T_model = Eigen::Isometry3d::Identity();
+  hologram_T_model.linear() = Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  hologram_T_model.translation() = Eigen::Vector3d(10, -20, 400);
+  igtlink::ServerOptions o;
+  o.port = 0;
+  igtlink::Server workstation(o);
+  workstation.onConnect([&](igtlink::ClientId id) {
+    workstation.send(id, igtlink::makeMessage("C5", igtlink::TransformContent::fromIsometry(hologram_T_model)),
+                     igtlink::HeaderVersion::kV2, igtlink::Channel::Reliable);
+  });
+  workstation.start();
+  const auto scenario = parseScenario(R"({"format": "mrsns-scenario/1", "tracker": {"port": 0},
+      "tools": [{"name": "HeadsetToTracker",
+                 "start": {"translation_mm": [100, -50, -1200], "rotation_deg": [0, 0, 30]}}],
+      "hmd": {"port": )" + std::to_string(workstation.port()) +
+                                          R"(, "marker_tool": "HeadsetToTracker",
+              "world_to_marker": {"translation_mm": [0, 40, 20], "rotation_deg": [90, 0, 0]}},
+      "duration_s": 1.5})",
+                                      ".");
+  OperatingRoom room(scenario);
+  room.start();
+  while (!room.finished()) std::this_thread::sleep_for(20ms);
+  room.stop();
+  workstation.stop();
+  const auto dir = test::scratchDirectory("hmd-tracked");
+  room.writeTruth(dir / "truth.json");
+  std::ifstream in(dir / "truth.json");
+  const auto truth = nlohmann::json::parse(in);
+  ASSERT_TRUE(truth.contains("HeadsetWorldToTracker"));
+  const Eigen::Isometry3d tracker_T_marker = scenario.tools[0].start;
+  const Eigen::Isometry3d expected = tracker_T_marker * scenario.hmd.marker_T_world * hologram_T_model;
+  int checked = 0;
+  for (const auto& h : truth["hmd_displayed"]) {
+    if (!h.contains("tracker_T_model") || h["models"].empty() || !h["visible"][0].get<bool>()) continue;
+    const auto& p = h["tracker_T_model"][0];
+    // TRANSFORM carries float32: ~1e-4 mm at these distances.
+    EXPECT_LT((Eigen::Vector3d(p[0], p[1], p[2]) - expected.translation()).norm(), 1e-3);
+    const Eigen::Quaterniond q(p[3].get<double>(), p[4].get<double>(), p[5].get<double>(), p[6].get<double>());
+    EXPECT_LT(q.angularDistance(Eigen::Quaterniond(expected.linear())), 1e-6);
+    ++checked;
+  }
+  EXPECT_GT(checked, 5) << "displayed at 10 Hz";
+}
+
 }  // namespace
 }  // namespace mrsns::simulation

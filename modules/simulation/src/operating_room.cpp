@@ -64,6 +64,7 @@ struct HmdTruth {
   double utc;
   std::vector<std::string> names;
   std::vector<std::array<double, 7>> world_T_model;
+  std::vector<std::array<double, 7>> tracker_T_model;  // where the wearer sees it (tracked headsets only)
   std::vector<bool> visible;
 };
 
@@ -81,6 +82,8 @@ struct OperatingRoom::Impl {
   std::unique_ptr<PlusServerEmulator> plus;
   std::unique_ptr<robot::UrSimulator> ur;
   std::unique_ptr<HmdEmulator> hmd;
+  /// The headset's world frame in the tracker's, anchored at the start (a tracked headset only).
+  std::optional<Eigen::Isometry3d> tracker_T_hmd_world;
   std::optional<TrackedSequence> replay;
 
   std::atomic<bool> running{false};
@@ -211,10 +214,11 @@ struct OperatingRoom::Impl {
 
   // At 10 Hz: what the emulated headset displays (its truth: what the wearer would see).
   void recordHmd(double t) {
-    HmdTruth h{utc0 + t, {}, {}, {}};
+    HmdTruth h{utc0 + t, {}, {}, {}, {}};
     for (const auto& m : hmd->displayed()) {
       h.names.push_back(m.name);
       h.world_T_model.push_back(compact(m.world_T_model));
+      if (tracker_T_hmd_world) h.tracker_T_model.push_back(compact(*tracker_T_hmd_world * m.world_T_model));
       h.visible.push_back(m.visible);
     }
     std::lock_guard lock(truth_mutex);
@@ -428,6 +432,12 @@ void OperatingRoom::start() {
     hmd.jitter_mm = s.hmd.jitter_mm;
     hmd.seed = s.seed;
     impl_->hmd = std::make_unique<HmdEmulator>(hmd);
+    if (!s.hmd.marker_tool.empty()) {
+      // A headset anchors its world frame where it is when it starts; its marker tells the truth of that place.
+      for (const auto& tool : impl_->world->tools(0.0, std::nullopt)) {
+        if (tool.name == s.hmd.marker_tool) impl_->tracker_T_hmd_world = tool.tracker_T_tool * s.hmd.marker_T_world;
+      }
+    }
     impl_->hmd->start();
   }
   impl_->t0 = Clock::now();
@@ -524,10 +534,18 @@ void OperatingRoom::writeTruth(const std::filesystem::path& path) const {
     j["video_frames"] = frames;
     Json displayed = Json::array();
     for (const auto& h : impl_->hmd_truth) {
-      displayed.push_back(
-          {{"utc", h.utc}, {"models", h.names}, {"world_T_model", h.world_T_model}, {"visible", h.visible}});
+      Json d{{"utc", h.utc}, {"models", h.names}, {"world_T_model", h.world_T_model}, {"visible", h.visible}};
+      if (!h.tracker_T_model.empty()) d["tracker_T_model"] = h.tracker_T_model;
+      displayed.push_back(d);
     }
     j["hmd_displayed"] = displayed;
+    if (impl_->tracker_T_hmd_world) {
+      Json m = Json::array();
+      for (int r = 0; r < 4; ++r) {
+        for (int c = 0; c < 4; ++c) m.push_back(impl_->tracker_T_hmd_world->matrix()(r, c));
+      }
+      j["HeadsetWorldToTracker"] = m;
+    }
     Json events = Json::array();
     for (const auto& e : impl_->events) events.push_back({{"t", e.t}, {"utc", e.utc}, {"event", e.what}});
     j["events"] = events;

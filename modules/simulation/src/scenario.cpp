@@ -504,7 +504,11 @@ Scenario parseScenario(const std::string& json_text, const std::filesystem::path
   if (root.has("robot")) s.robot = readRobot(root.child("robot"));
   if (root.has("hmd")) {
     const Node n = root.child("hmd");
-    n.allow({"enabled", "host", "port", "unity", "drift_mm_per_min", "jitter_mm", "respond", "confirmations"});
+    n.allow({"enabled", "host", "port", "unity", "drift_mm_per_min", "jitter_mm", "respond", "confirmations",
+             "marker_tool", "world_to_marker"});
+    s.hmd.marker_tool = n.text("marker_tool", "");
+    if (!s.hmd.marker_tool.empty()) checkToolName(n, "marker_tool", s.hmd.marker_tool);
+    s.hmd.marker_T_world = n.pose("world_to_marker", s.hmd.marker_T_world);
     for (const auto& r : n.array("respond")) {
       r.allow({"prompt_contains", "after_s", "confirm"});
       HmdResponse response;
@@ -564,6 +568,7 @@ Scenario parseScenario(const std::string& json_text, const std::filesystem::path
   }
   if (s.patient && !s.replay) needTool(s.patient->reference_tool, "'patient'");
   if (s.nwire_phantom && !s.replay) needTool(s.nwire_phantom->reference_tool, "'nwire_phantom'");
+  if (s.hmd.enabled && !s.hmd.marker_tool.empty()) needTool(s.hmd.marker_tool, "'hmd'");
   if (s.robot.enabled && names.count(s.robot.marker_tool)) {
     throw FormatError(source + ": '" + s.robot.marker_tool +
                       "' is the robot's marker (robot.marker_tool): it moves with the arm, leave it out of 'tools'");

@@ -206,6 +206,11 @@ struct HmdConfirmation {
 };
 
 struct HmdSpec {
+  /// The headset's tracked marker (a scenario tool, e.g. HeadsetToTracker): the headset's world frame is
+  /// anchored where the marker is when the room starts, at `world_to_marker` from it (the truth an HMD
+  /// calibration estimates). Empty: the headset is not tracked.
+  std::string marker_tool;
+  Eigen::Isometry3d marker_T_world = Eigen::Isometry3d::Identity();
   std::vector<HmdResponse> responses;
   std::vector<HmdConfirmation> confirmations;
   bool enabled = false;
