@@ -27,6 +27,7 @@ namespace mrsns::simulation {
 namespace {
 
 using Clock = std::chrono::steady_clock;
+using namespace std::chrono_literals;
 constexpr double kDeg = M_PI / 180.0;
 // The UR5's reach from its base axis (Universal Robots: 850 mm).
 constexpr double kUr5ReachMm = 850.0;
@@ -333,6 +334,12 @@ struct OperatingRoom::Impl {
     frame.spacing_x_mm = seq.geometry.spacing[0];
     frame.spacing_y_mm = seq.geometry.spacing[1];
     double offset = 0.0;
+    if (scenario.replay->wait_for_client) {
+      while (running.load() && plus->stats().clients_connected == 0) std::this_thread::sleep_for(10ms);
+      // The client's first requests (GET_STATUS, STT_TDATA) are answered before the first frame goes out.
+      std::this_thread::sleep_for(200ms);
+      offset = elapsed();
+    }
     const double first = seq.frames.front().timestamp;
     const double span = seq.frames.back().timestamp - first;
     do {

@@ -542,11 +542,12 @@ Scenario parseScenario(const std::string& json_text, const std::filesystem::path
   }
   if (root.has("replay")) {
     const Node n = root.child("replay");
-    n.allow({"sequence", "speed", "loop"});
+    n.allow({"sequence", "speed", "loop", "wait_for_client"});
     ReplaySpec r;
     r.sequence = filePath(n, "sequence", base_dir);
     r.speed = n.number("speed", 1.0, 0.01, 100.0);
     r.loop = n.boolean("loop", false);
+    r.wait_for_client = n.boolean("wait_for_client", false);
     s.replay = r;
     if (!s.tools.empty() || s.ultrasound.enabled) {
       root.fail("replays a recording: 'tools' and 'ultrasound' come from the recording and must be left out");

@@ -1,7 +1,9 @@
 // Ultrasound spatial (N-wire) and temporal (tracker lag) calibration steps,
 // on the PLUS fCal recording of the shared data set unless told otherwise.
+#include <optional>
 #include <sstream>
 
+#include "live_us_recording.h"
 #include "mrsns/core/data_dir.h"
 #include "mrsns/io/device_set.h"
 #include "mrsns/io/sequence_file.h"
@@ -16,6 +18,8 @@ namespace {
 constexpr const char* kConfig = "plus/PlusDeviceSet_fCal_Sim_SpatialCalibration_1.2.xml";
 constexpr const char* kCalibration = "plus/fCal_Test_Calibration_3NWires.igs.mha";
 constexpr const char* kValidation = "plus/fCal_Test_Validation_3NWires.igs.mha";
+// Where a live calibration sweep is recorded in the session.
+constexpr const char* kLiveSweep = "us-spatial-calibration/calibration_sweep.igs.mha";
 
 std::filesystem::path dataPath(const Params& p, const std::string& key, const char* relative) {
   if (p.has(key)) {
@@ -37,14 +41,18 @@ struct Inputs {
   std::filesystem::path calibration_path;
 };
 
-Inputs readInputs(const Params& p, const StepContext& context) {
+Inputs readInputs(const Params& p, const StepContext& context, const TrackedSequence* recorded = nullptr) {
   Inputs in;
   context.report(0.05, "reading the device set");
   in.config = io::readDeviceSet(dataPath(p, "config", kConfig));
   checkCancel(context);
-  context.report(0.1, "reading the calibration recording");
-  in.calibration_path = dataPath(p, "calibration", kCalibration);
-  in.calibration = io::readSequence(in.calibration_path);
+  if (recorded != nullptr) {
+    in.calibration = *recorded;
+  } else {
+    context.report(0.1, "reading the calibration recording");
+    in.calibration_path = dataPath(p, "calibration", kCalibration);
+    in.calibration = io::readSequence(in.calibration_path);
+  }
   checkCancel(context);
   context.report(0.25, "reading the validation recording");
   in.validation = io::readSequence(dataPath(p, "validation", kValidation));
@@ -65,8 +73,36 @@ Json errorFigures(const ultrasound::CalibrationErrorReport& e) {
 }  // namespace
 
 StepResult runUsSpatialCalibration(Session& session, const Json& params, const StepContext& context) {
-  const Params p("us-spatial-calibration", params, {"config", "calibration", "validation", "tracker_lag_ms"});
-  const Inputs in = readInputs(p, context);
+  const Params p("us-spatial-calibration", params,
+                 {"config", "calibration", "validation", "tracker_lag_ms", "source", "host", "port", "duration_s",
+                  "idle_stop_s", "connect_timeout_s"});
+  // source=plus: the calibration sweep is recorded live from a PlusServer (or mrsns-sim) into the session first,
+  // as fCal does; the step then calibrates on that recording, which the offline verbs can recompute.
+  std::optional<LiveUsRecording> live;
+  const std::string source = p.text("source", "file");
+  if (source == "plus") {
+    if (p.has("calibration")) {
+      throw InvalidArgumentError("us-spatial-calibration: give either source=plus (record the sweep) or calibration");
+    }
+    LiveUsRecordingOptions o;
+    o.host = p.text("host", o.host);
+    o.port = p.integer("port", o.port);
+    o.max_duration_s = p.number("duration_s", o.max_duration_s);
+    o.idle_stop_s = p.number("idle_stop_s", o.idle_stop_s);
+    o.connect_timeout_s = p.number("connect_timeout_s", o.connect_timeout_s);
+    if (!(o.max_duration_s > 0.0 && o.max_duration_s <= 3600.0) || !(o.idle_stop_s > 0.0) ||
+        !(o.connect_timeout_s > 0.0)) {
+      throw InvalidArgumentError(
+          "us-spatial-calibration: duration_s must be in (0, 3600] s, idle_stop_s and connect_timeout_s > 0");
+    }
+    context.report(0.05, "recording the calibration sweep from " + o.host + ":" + std::to_string(o.port));
+    live = recordLiveUltrasound(o, context);
+    std::filesystem::create_directories(session.resolve("us-spatial-calibration"));
+    io::writeSequence(session.resolve(kLiveSweep), live->sequence);
+  } else if (source != "file") {
+    throw InvalidArgumentError("us-spatial-calibration: source must be file or plus, not '" + source + "'");
+  }
+  const Inputs in = readInputs(p, context, live ? &live->sequence : nullptr);
   // tracker_lag_ms: a number (ms), or "auto" (estimated from the
   // calibration sweep, none when the sweep does not pin it down). Without
   // it, PLUS's workflow: the lag of this session's temporal calibration when
@@ -135,8 +171,20 @@ StepResult runUsSpatialCalibration(Session& session, const Json& params, const S
     result.figures["tracker_lag_check"] = check;
   }
   result.outputs = {output};
+  if (live) {
+    const bool simulated = live->device_identity.rfind("mrsns-sim", 0) == 0;
+    result.outputs.push_back(kLiveSweep);
+    result.figures["recorded"] = {{"file", kLiveSweep},
+                                  {"frames", live->sequence.frames.size()},
+                                  {"frames_refused", live->frames_refused},
+                                  {"tool_samples", live->tool_samples},
+                                  {"seconds", live->seconds},
+                                  {"device_identity", live->device_identity}};
+    result.figures["simulated"] = simulated;
+  }
   std::ostringstream s;
   s.precision(3);
+  if (live) s << "recorded " << live->sequence.frames.size() << " frames live; ";
   s << "ImageToProbe from " << r.frames_used << " frames, tracker lag " << run.tracker_lag.lag_s * 1e3 << " ms"
     << (lag_source == "estimated"                 ? " (estimated)"
         : lag_source == "us-temporal-calibration" ? " (from the temporal calibration)"

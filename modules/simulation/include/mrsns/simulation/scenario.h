@@ -237,6 +237,8 @@ struct ReplaySpec {
   std::filesystem::path sequence;  ///< PLUS sequence (.mha/.mhd/.nrrd) with transforms and optionally images
   double speed = 1.0;
   bool loop = false;
+  /// Start the recording when the first client connects (so it misses no frame), not when the room starts.
+  bool wait_for_client = false;
 };
 
 struct Scenario {

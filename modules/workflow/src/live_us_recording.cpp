@@ -1,0 +1,125 @@
+// A tracked ultrasound sweep recorded live, frames paired with interpolated poses.
+#include "live_us_recording.h"
+
+#include <chrono>
+#include <map>
+#include <mutex>
+#include <thread>
+
+#include "mrsns/core/error.h"
+#include "mrsns/core/rigid.h"
+#include "mrsns/tracking/igtl_source.h"
+#include "step_internal.h"
+
+namespace mrsns::workflow::detail {
+
+namespace {
+
+// A tool's pose at time t from its samples (sorted by time): interpolated between the valid samples around t when
+// both lie within 0.1 s of it; nullopt otherwise (PLUS then reports the tool invalid in that frame).
+std::optional<Eigen::Isometry3d> interpolateAt(const std::vector<std::pair<double, Eigen::Isometry3d>>& samples,
+                                               double t) {
+  constexpr double kMaxGap_s = 0.1;
+  const auto after =
+      std::lower_bound(samples.begin(), samples.end(), t, [](const auto& s, double x) { return s.first < x; });
+  if (after != samples.end() && after->first == t) return after->second;
+  if (after == samples.begin() || after == samples.end()) return std::nullopt;
+  const auto before = after - 1;
+  if (t - before->first > kMaxGap_s || after->first - t > kMaxGap_s) return std::nullopt;
+  return interpolatePose(before->second, after->second, (t - before->first) / (after->first - before->first));
+}
+
+}  // namespace
+
+LiveUsRecording recordLiveUltrasound(const LiveUsRecordingOptions& options, const StepContext& context) {
+  if (options.port <= 0 || options.port > 65535) {
+    throw InvalidArgumentError("PlusServer port " + std::to_string(options.port) + " is not in 1..65535");
+  }
+  auto repository = std::make_shared<TransformRepository>();
+  tracking::IgtlSourceOptions igtl;
+  igtl.client.host = options.host;
+  igtl.client.port = static_cast<std::uint16_t>(options.port);
+  igtl.identify_device = true;
+  tracking::IgtlTrackingSource source(repository, igtl);
+
+  std::mutex mutex;
+  std::map<std::string, std::vector<std::pair<double, Eigen::Isometry3d>>> poses;
+  std::vector<tracking::TrackedImage> images;
+  LiveUsRecording out;
+  using Clock = std::chrono::steady_clock;
+  Clock::time_point last_image{};
+  source.setUpdateCallback([&](std::span<const tracking::ToolUpdate> updates) {
+    std::lock_guard lock(mutex);
+    for (const auto& u : updates) {
+      if (u.status != TransformStatus::Ok) continue;
+      auto& v = poses[u.name];
+      // Samples arrive in order per tool; one out of order (a resent sample) is dropped rather than sorted in.
+      if (v.empty() || u.timestamp > v.back().first) v.emplace_back(u.timestamp, u.to_T_from);
+      ++out.tool_samples;
+    }
+  });
+  source.setImageCallback([&](const tracking::TrackedImage& image) {
+    std::lock_guard lock(mutex);
+    if (!images.empty() &&
+        (image.geometry.size != images.front().geometry.size || !(image.format == images.front().format))) {
+      ++out.frames_refused;
+      return;
+    }
+    if (images.size() >= options.max_frames) return;
+    images.push_back(image);
+    last_image = Clock::now();
+  });
+  const auto start = Clock::now();
+  source.start();
+  try {
+    while (true) {
+      const double elapsed = std::chrono::duration<double>(Clock::now() - start).count();
+      std::size_t frames = 0;
+      double idle = 0.0;
+      {
+        std::lock_guard lock(mutex);
+        frames = images.size();
+        if (frames > 0) idle = std::chrono::duration<double>(Clock::now() - last_image).count();
+      }
+      if (frames == 0 && elapsed > options.connect_timeout_s) {
+        throw NetworkError("no ultrasound frame from the PlusServer at " + options.host + ":" +
+                           std::to_string(options.port) + " in " + std::to_string(static_cast<int>(elapsed)) +
+                           " s: check that it runs and streams IMAGE messages");
+      }
+      if (frames > 0 && (idle > options.idle_stop_s || frames >= options.max_frames)) break;
+      if (elapsed > options.max_duration_s) break;
+      context.report(std::min(0.25, 0.05 + 0.2 * elapsed / options.max_duration_s),
+                     "recording the sweep: " + std::to_string(frames) + " frames");
+      if (context.cancelled()) throw Cancelled{};
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+  } catch (...) {
+    source.stop();
+    throw;
+  }
+  source.stop();
+  out.device_identity = source.deviceIdentity();
+  out.seconds = std::chrono::duration<double>(Clock::now() - start).count();
+
+  std::lock_guard lock(mutex);
+  if (images.empty()) throw NetworkError("the PlusServer sent no ultrasound frame");
+  TrackedSequence& seq = out.sequence;
+  const auto& first = images.front();
+  seq.geometry = first.geometry;
+  seq.pixel_format = first.format;
+  seq.orientation = "MF";  // PlusServer sends MF frames
+  for (auto& image : images) {
+    TrackedFrame f;
+    f.timestamp = image.timestamp;
+    f.pixels = std::move(image.pixels);
+    for (const auto& [name, samples] : poses) {
+      const auto pose = interpolateAt(samples, f.timestamp);
+      f.transforms[name] = pose ? FrameTransform{pose->matrix(), TransformStatus::Ok}
+                                : FrameTransform{Eigen::Matrix4d::Identity(), TransformStatus::Invalid};
+    }
+    seq.frames.push_back(std::move(f));
+  }
+  return out;
+}
+
+}  // namespace mrsns::workflow::detail
