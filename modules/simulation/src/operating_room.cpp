@@ -4,6 +4,7 @@
 // on its own, faults on schedule; or the replay of a recording.
 #include "mrsns/simulation/operating_room.h"
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -145,7 +146,10 @@ struct OperatingRoom::Impl {
         recordHmd(t);
       }
       std::optional<Eigen::Isometry3d> base_T_flange;
-      if (ur) base_T_flange = ur->armState().base_T_flange;
+      if (ur) {
+        guideArm(t);
+        base_T_flange = ur->armState().base_T_flange;
+      }
       const auto truth = world->tools(t, base_T_flange);
       std::vector<MeasuredTool> measured;
       measured.reserve(truth.size());
@@ -171,6 +175,32 @@ struct OperatingRoom::Impl {
       stats.invalid_tool_samples += invalid;
     }
   }
+
+  // The operator guiding the arm by hand (freedrive): the arm is where the hand puts it, waypoint after waypoint
+  // with a minimum-jerk profile; after the last waypoint the controller has the arm again.
+  void guideArm(double t) {
+    const auto& path = scenario.robot.hand_guided;
+    if (path.empty()) return;
+    robot::Joints from;
+    for (int i = 0; i < 6; ++i) from[i] = scenario.robot.start_joints[static_cast<std::size_t>(i)];
+    double start = 0.0;
+    for (const auto& w : path) {
+      robot::Joints to;
+      for (int i = 0; i < 6; ++i) to[i] = w.joints[static_cast<std::size_t>(i)];
+      if (t < start + w.duration_s) {
+        const double s = std::clamp((t - start) / w.duration_s, 0.0, 1.0);
+        ur->arm().reset(from + (to - from) * (s * s * s * (10.0 - 15.0 * s + 6.0 * s * s)));
+        return;
+      }
+      from = to;
+      start += w.duration_s;
+    }
+    if (!guided_to_end) {
+      ur->arm().reset(from);  // released at the last waypoint
+      guided_to_end = true;
+    }
+  }
+  bool guided_to_end = false;
 
   // The virtual operator at the headset: answers the workstation's prompts after the time the task takes, and
   // confirms on the scenario's timeline. Runs at 10 Hz from the tracker thread.

@@ -346,8 +346,8 @@ UltrasoundSpec readUltrasound(const Node& n) {
 }
 
 RobotSpec readRobot(const Node& n) {
-  n.allow(
-      {"enabled", "ports", "base_to_tracker", "marker_to_flange", "drill_tip_mm", "marker_tool", "start_joints_deg"});
+  n.allow({"enabled", "ports", "base_to_tracker", "marker_to_flange", "drill_tip_mm", "marker_tool", "start_joints_deg",
+           "hand_guided"});
   RobotSpec r;
   r.enabled = n.boolean("enabled", true);
   if (n.has("ports")) {
@@ -370,6 +370,19 @@ RobotSpec readRobot(const Node& n) {
       if (!v[i].is_number()) n.failKey("start_joints_deg", "must be 6 numbers");
       r.start_joints[i] = v[i].get<double>() * kDeg;
     }
+  }
+  for (const auto& w : n.array("hand_guided")) {
+    w.allow({"joints_deg", "duration_s"});
+    RobotSpec::GuidedWaypoint waypoint;
+    if (!w.has("joints_deg")) w.fail("needs 'joints_deg' (6 numbers)");
+    const auto& v = w.json().at("joints_deg");
+    if (!v.is_array() || v.size() != 6) w.failKey("joints_deg", "must be 6 numbers");
+    for (std::size_t i = 0; i < 6; ++i) {
+      if (!v[i].is_number()) w.failKey("joints_deg", "must be 6 numbers");
+      waypoint.joints[i] = v[i].get<double>() * kDeg;
+    }
+    waypoint.duration_s = w.number("duration_s", waypoint.duration_s, 0.05, 3600.0);
+    r.hand_guided.push_back(waypoint);
   }
   return r;
 }

@@ -187,6 +187,14 @@ struct RobotSpec {
   Eigen::Vector3d drill_tip_flange = Eigen::Vector3d(0.0, 0.0, 150.0);
   std::string marker_tool = "FlangeToTracker";
   std::array<double, 6> start_joints{0.0, -1.5708, 1.5708, -1.5708, -1.5708, 0.0};
+  /// The operator guiding the arm by hand (freedrive), one waypoint after the other from the start joints:
+  /// joints (rad) reached with a minimum-jerk profile over each duration. While guided, the arm follows the hand,
+  /// not the controller's commands.
+  struct GuidedWaypoint {
+    std::array<double, 6> joints{};
+    double duration_s = 1.0;
+  };
+  std::vector<GuidedWaypoint> hand_guided;
 };
 
 /// The emulated headset: a client of the workstation's hologram stream.
