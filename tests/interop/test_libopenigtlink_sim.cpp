@@ -79,7 +79,8 @@ Eigen::Matrix4d toEigen(igtl::Matrix4x4& m) {
 }
 
 // Rigid, and within 3 mm / 1 deg of the scenario's pose (tracker noise: 0.12 mm, 0.05 deg RMS).
-::testing::AssertionResult nearPose(const std::string& what, const Eigen::Matrix4d& m, const Eigen::Matrix4d& expected) {
+::testing::AssertionResult nearPose(const std::string& what, const Eigen::Matrix4d& m,
+                                    const Eigen::Matrix4d& expected) {
   const Eigen::Matrix3d r = m.block<3, 3>(0, 0);
   const double orthogonality = (r.transpose() * r - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
   if (orthogonality > 1e-4 || std::abs(r.determinant() - 1.0) > 1e-4) {
@@ -90,7 +91,8 @@ Eigen::Matrix4d toEigen(igtl::Matrix4x4& m) {
   const double angle_deg = std::acos(cos_angle) * 180.0 / M_PI;
   if (distance > 3.0 || angle_deg > 1.0) {
     return ::testing::AssertionFailure() << what << ": " << distance << " mm and " << angle_deg
-                                         << " deg from the scenario's pose\n" << m;
+                                         << " deg from the scenario's pose\n"
+                                         << m;
   }
   return ::testing::AssertionSuccess();
 }
@@ -157,8 +159,7 @@ TEST(LibOpenIGTLinkSim, ReceivesTransformImageAndTrackingDataOfMrsnsSim) {
   const auto ready_file = dir / "ready.json";
   std::filesystem::remove(ready_file);
   SimProcess sim({"run", "--scenario", scenarioPath().string(), "--truth", (dir / "truth.json").string(), "--any-ports",
-                  "--ready-file", ready_file.string(), "--duration", "60", "--json"},
-                 dir);
+                  "--ready-file", ready_file.string(), "--duration", "60", "--json"});
   ASSERT_TRUE(sim.started());
   const auto ready = sim.waitReady(ready_file, 60.0);
   ASSERT_FALSE(ready.is_null()) << "mrsns-sim not ready: " << sim.wait(1).err;
@@ -272,8 +273,8 @@ TEST(LibOpenIGTLinkSim, ReceivesTransformImageAndTrackingDataOfMrsnsSim) {
         igtl::Matrix4x4 m;
         e->GetMatrix(m);
         ASSERT_TRUE(scene.poses.count(e->GetName())) << "TDATA element '" << e->GetName() << "'";
-        ASSERT_TRUE(nearPose(std::string("TDATA element '") + e->GetName() + "'", toEigen(m),
-                             scene.poses.at(e->GetName())));
+        ASSERT_TRUE(
+            nearPose(std::string("TDATA element '") + e->GetName() + "'", toEigen(m), scene.poses.at(e->GetName())));
       }
       EXPECT_EQ(names.size(), scene.poses.size()) << "TDATA without every (valid) scenario tool";
       tdata_stamps.push_back(stampOf(h));
@@ -288,8 +289,8 @@ TEST(LibOpenIGTLinkSim, ReceivesTransformImageAndTrackingDataOfMrsnsSim) {
   const double tdata_hz = rateHz(tdata_stamps);
   EXPECT_GE(tdata_hz, 14.0);
   EXPECT_LE(tdata_hz, 21.0);
-  std::printf("TDATA: RTS_TDATA status %d, %zu messages with all %zu tools at %.1f Hz (resolution 50 ms)\n",
-              rts_status, tdata_stamps.size(), scene.poses.size(), tdata_hz);
+  std::printf("TDATA: RTS_TDATA status %d, %zu messages with all %zu tools at %.1f Hz (resolution 50 ms)\n", rts_status,
+              tdata_stamps.size(), scene.poses.size(), tdata_hz);
 
   // 3. STP_TDATA: the TDATA stop (a few may have been in flight), the TRANSFORMs go on.
   igtl::StopTrackingDataMessage::Pointer stop = igtl::StopTrackingDataMessage::New();

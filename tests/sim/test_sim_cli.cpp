@@ -84,8 +84,7 @@ TEST(SimCli, APortInUseIsRefusedWithOneLine) {
   const auto scenario = writeFile(dir, "s.json", R"({"format": "mrsns-scenario/1", "tracker": {"port": 0},
       "tools": [{"name": "StylusToTracker", "start": {"translation_mm": [0, 0, -1300]}}]})");
   SimProcess first({"run", "--scenario", scenario.string(), "--truth", (dir / "t1.json").string(), "--ready-file",
-                    (dir / "ready1.json").string()},
-                   dir);
+                    (dir / "ready1.json").string()});
   const auto ready = first.waitReady(dir / "ready1.json");
   ASSERT_FALSE(ready.is_null()) << first.wait().err;
   const int port = ready["plus_port"].get<int>();
@@ -102,8 +101,7 @@ TEST(SimCli, ConnectDevicesSeesEveryToolOfTheDefaultScenarioAtItsRate) {
   MRSNS_REQUIRE_DATA(config, "plus/PlusDeviceSet_fCal_Sim_SpatialCalibration_1.2.xml");
   const auto dir = scratchDirectory("connect");
   SimProcess sim({"run", "--scenario", defaultScenario().string(), "--any-ports", "--duration", "0", "--truth",
-                  (dir / "truth.json").string(), "--ready-file", (dir / "ready.json").string(), "--json"},
-                 dir);
+                  (dir / "truth.json").string(), "--ready-file", (dir / "ready.json").string(), "--json"});
   const auto ready = sim.waitReady(dir / "ready.json", 60.0);
   ASSERT_FALSE(ready.is_null()) << sim.wait().err;
   ASSERT_EQ(runCli({"session", "create", (dir / "session").string()}).exit_code, 0);

@@ -37,8 +37,7 @@ TEST(SimReplaySession, TheReplayedFcalSweepCalibratesInTheSessionAsOffline) {
       "tracker": {"port": 0}, "replay": {"sequence": ")"
                                      << calibration.string() << R"(", "wait_for_client": true}})";
   SimProcess sim({"run", "--scenario", (dir / "replay.json").string(), "--truth", (dir / "truth.json").string(),
-                  "--ready-file", (dir / "ready.json").string(), "--json"},
-                 dir);
+                  "--ready-file", (dir / "ready.json").string(), "--json"});
   const auto ready = sim.waitReady(dir / "ready.json");
   ASSERT_FALSE(ready.is_null()) << sim.wait().err;
   ASSERT_EQ(runCli({"session", "create", (dir / "session").string()}).exit_code, 0);

@@ -9,6 +9,7 @@
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <vector>
 
 namespace mrsns::test {
 
@@ -35,14 +36,22 @@ inline std::string quoteArgument(const std::string& s) {
   return quoted + "'";
 }
 
-/// Runs `mrsns-cli ARGS...` (arguments are shell-quoted) and captures its output.
-inline CliResult runCli(const std::vector<std::string>& args) {
+/// The whole content of a file ("" when it cannot be read).
+inline std::string slurpFile(const std::filesystem::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+/// Runs `PROGRAM ARGS...` (arguments are shell-quoted) to its end and captures its output.
+inline CliResult runProgram(const std::filesystem::path& program, const std::vector<std::string>& args) {
   static int counter = 0;
   const auto dir = std::filesystem::temp_directory_path() / ("mrsns-cli-test-" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir);
   const auto out_file = dir / ("out" + std::to_string(counter) + ".txt");
   const auto err_file = dir / ("err" + std::to_string(counter++) + ".txt");
-  std::string command = quoteArgument(cliBinary().string());
+  std::string command = quoteArgument(program.string());
   for (const auto& a : args) {
     // Appended in two steps: GCC 12 -O3 warns falsely (-Wrestrict) on `" " + std::string`.
     command += ' ';
@@ -52,17 +61,16 @@ inline CliResult runCli(const std::vector<std::string>& args) {
   const int status = std::system(command.c_str());
   CliResult result;
   result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-  auto slurp = [](const std::filesystem::path& p) {
-    std::ifstream in(p, std::ios::binary);
-    std::stringstream ss;
-    ss << in.rdbuf();
-    return ss.str();
-  };
-  result.out = slurp(out_file);
-  result.err = slurp(err_file);
+  result.out = slurpFile(out_file);
+  result.err = slurpFile(err_file);
   std::filesystem::remove(out_file);
   std::filesystem::remove(err_file);
   return result;
+}
+
+/// Runs `mrsns-cli ARGS...` and captures its output.
+inline CliResult runCli(const std::vector<std::string>& args) {
+  return runProgram(cliBinary(), args);
 }
 
 }  // namespace mrsns::test
