@@ -131,8 +131,10 @@ struct OperatingRoom::Impl {
     for (std::uint64_t tick = 0; running.load(); ++tick) {
       const double t_tick = tick * period;
       if (!sleepUntil(t_tick)) break;
-      const double t = elapsed();
-      if (t > t_tick + period) {
+      // A tracker samples at regular instants and stamps each sample with its own clock; when this process is
+      // late (a loaded machine) the sample is still taken and stamped at its instant, and only published late.
+      const double t = t_tick;
+      if (elapsed() > t_tick + period) {
         std::lock_guard lock(truth_mutex);
         ++stats.tracker_overruns;
       }
@@ -321,7 +323,8 @@ struct OperatingRoom::Impl {
     double render_ms_total = 0.0;
     for (std::uint64_t tick = 0; running.load(); ++tick) {
       if (!sleepUntil(tick * period)) break;
-      const double t = elapsed();
+      // The frame grabber's instants, as the tracker's: regular, whatever this process's scheduling.
+      const double t = tick * period;
       if (scenario.duration_s > 0.0 && t >= scenario.duration_s) break;
       const double content_t = std::max(0.0, t - us.video_lag_s);
       const bool frozen = videoFrozen(t) && !frame.pixels.empty();
