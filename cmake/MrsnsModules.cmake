@@ -33,9 +33,12 @@ function(mrsns_add_test module)
   endif()
   add_executable(${_exe} ${_sources})
   target_link_libraries(${_exe} PRIVATE ${ARG_LIBS} mrsns_test_support GTest::gmock GTest::gtest_main mrsns_warnings)
+  # Listing a program's tests is its first run: on a cold cache it loads VTK/ITK/Qt, which took over CMake's 5 s
+  # default once in a CI run (the whole ctest run then failed), so allow a minute.
   gtest_discover_tests(${_exe}
     TEST_PREFIX "${module}."
     DISCOVERY_MODE PRE_TEST
+    DISCOVERY_TIMEOUT 60
     PROPERTIES LABELS ${module})
 endfunction()
 
