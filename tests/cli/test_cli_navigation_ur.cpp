@@ -106,7 +106,7 @@ TEST(CliNavigationUr, AgainstTheRobotSimulatorATrackerLossStopsTheControllersArm
                          "--robot-ports", ports, "--tracker-dropout", "PatientToTracker:2.2:1", "--param",
                          "duration_s=3.2", "--param", "deformation_cases=0",
                          // stops must come from tracking, not from this shared machine's scheduling
-                         "--param", "max_missed_cycles=200", "--param", "silence_timeout_s=1", "--param",
+                         "--param", "max_missed_cycles=200", "--param", "max_cycle_time_s=0.2", "--param", "silence_timeout_s=1", "--param",
                          "ur_silence_s=0.5", "--json"});
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const auto j = nlohmann::json::parse(r.out);

@@ -19,7 +19,7 @@ TEST(CliNavStop, TrackerDropoutStopsTheSimulatedRobotAndTheJsonSaysWhy) {
   const auto r = runCli({"session", "run", dir.string(), "navigation", "--robot", "simulated", "--tracker-dropout",
                          "PatientToTracker:2.2:1", "--param", "duration_s=3", "--param", "deformation_cases=0",
                          // stops must come from tracking, not from this shared machine's scheduling
-                         "--param", "max_missed_cycles=200", "--param", "silence_timeout_s=1", "--json"});
+                         "--param", "max_missed_cycles=200", "--param", "max_cycle_time_s=0.2", "--param", "silence_timeout_s=1", "--json"});
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const auto j = nlohmann::json::parse(r.out);
   EXPECT_EQ(j["robot"], "simulated");

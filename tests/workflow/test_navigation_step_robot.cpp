@@ -22,6 +22,7 @@ TEST(NavigationStepRobot, WithAPlanTheTrackerLossStopsTheRobotAndTheFiguresSayWh
                                {"deformation_cases", 0},
                                // Stops must come from tracking, not from this shared machine's scheduling.
                                {"max_missed_cycles", 200},
+                               {"max_cycle_time_s", 0.2},
                                {"silence_timeout_s", 1.0}},
                               {});
   ASSERT_TRUE(result.ok) << result.summary;

@@ -271,6 +271,7 @@ TEST(NavigationUr, TheNavigationStepDrivesTheControllerFromTheSessionsRobotCalib
                                {"dropout_duration_s", 1.0},
                                {"deformation_cases", 0},
                                {"max_missed_cycles", 200},
+                               {"max_cycle_time_s", 0.2},
                                {"silence_timeout_s", 1.0}},
                               {});
   ASSERT_TRUE(result.ok) << result.summary;

@@ -6,9 +6,9 @@
 #include "mrsns/core/error.h"
 #include "mrsns/core/log.h"
 #include "mrsns/igtlink/server.h"
-#include "mrsns/io/sequence_appender.h"
 #include "mrsns/workflow/navigation.h"
 #include "navigation_robot.h"
+#include "tracking_recorder.h"
 #include "video_recorder.h"
 
 namespace mrsns::workflow {
@@ -56,10 +56,7 @@ NavigationLoop::NavigationLoop(NavigationOptions options, std::vector<tracking::
   }
   source_ = makeTrackingSource(devices, repository_);
   if (!options_.recording.empty()) {
-    io::SequenceAppenderOptions rec;
-    rec.sync_interval_s = options_.sync_interval_s;
-    recorder_ =
-        std::make_unique<io::SequenceAppender>(options_.recording, io::SequenceAppender::trackerOnlyLayout(), rec);
+    recorder_ = std::make_unique<detail::TrackingRecorder>(options_.recording, options_.sync_interval_s);
   }
   std::filesystem::path video = options_.video_recording;
   if (video.empty() && !options_.recording.empty()) {
@@ -164,8 +161,11 @@ void NavigationLoop::stop() {
   }
   std::lock_guard lock(mutex_);
   if (recorder_) {
-    recorder_->sync();
-    status_.frames_synced = recorder_->framesSynced();
+    recorder_->stop();  // every batch the loop processed is on disk
+    const auto r = recorder_->stats();
+    status_.frames_recorded = r.recorded;
+    status_.frames_synced = r.synced;
+    if (status_.recorder_error.empty() && !r.error.empty()) status_.recorder_error = r.error;
   }
   status_.running = false;
   status_.source = source_->status();
@@ -303,11 +303,13 @@ void NavigationLoop::process(const std::vector<tracking::ToolUpdate>& batch, dou
   }
   // The supervisor first: a loss must not wait for the disk.
   if (robot_) feedRobot(arrived_s, frame.timestamp);
-  if (recorder_ && !recorder_->append(frame)) {
+  if (recorder_) {
+    recorder_->push(frame);
+    const auto r = recorder_->stats();
     std::lock_guard lock(mutex_);
-    if (status_.recorder_error.empty()) {
-      status_.recorder_error = recorder_->lastError();
-      addEvent(arrived_s, "recorder-error", recorder_->lastError());
+    if (status_.recorder_error.empty() && !r.error.empty()) {
+      status_.recorder_error = r.error;
+      addEvent(arrived_s, "recorder-error", r.error);
     }
   }
   if (deformation_) {
@@ -359,8 +361,9 @@ void NavigationLoop::process(const std::vector<tracking::ToolUpdate>& batch, dou
   latencies_.push_back(NavigationLatencySample{arrived_s, (done - arrived_s) * 1e3});
   status_.mean_loop_latency_ms = latency_sum_ms_ / static_cast<double>(status_.batches);
   if (recorder_) {
-    status_.frames_recorded = recorder_->framesAppended();
-    status_.frames_synced = recorder_->framesSynced();
+    const auto r = recorder_->stats();
+    status_.frames_recorded = r.recorded;
+    status_.frames_synced = r.synced;
   }
 }
 

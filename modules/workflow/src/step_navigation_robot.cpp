@@ -66,6 +66,10 @@ void configureNavigationRobot(const Session& session, const Params& params, Navi
   const int missed = params.integer("max_missed_cycles", static_cast<int>(options.robot.max_missed_cycles));
   if (missed < 0) throw InvalidArgumentError("navigation: max_missed_cycles must be >= 0");
   options.robot.max_missed_cycles = static_cast<std::uint64_t>(missed);
+  options.robot.max_cycle_time_s = params.number("max_cycle_time_s", options.robot.max_cycle_time_s);
+  if (!(options.robot.max_cycle_time_s > 0.0 && options.robot.max_cycle_time_s <= 1.0)) {
+    throw InvalidArgumentError("navigation: max_cycle_time_s must be in (0, 1] s");
+  }
   if (!has_plan) return;  // the default path in front of the patient reference
   const auto& paths = registration["figures"]["paths"];
   const int index = params.integer("robot_path", 0);

@@ -24,9 +24,6 @@
 #include "mrsns/tracking/hologram_streamer.h"
 #include "mrsns/tracking/tracking_source.h"
 
-namespace mrsns::io {
-class SequenceAppender;
-}
 namespace mrsns::igtlink {
 class Server;
 }
@@ -36,6 +33,7 @@ namespace mrsns::workflow {
 namespace detail {
 class NavigationRobot;
 class VideoRecorder;
+class TrackingRecorder;
 }  // namespace detail
 
 /// Which tracker to use: "simulated" (the default: patient, probe, stylus
@@ -231,7 +229,7 @@ class NavigationLoop {
   using StopHandler = std::function<void(const std::string& reason)>;
 
   /// Builds the source and the recorder. Throws like makeTrackingSource and
-  /// SequenceAppender.
+  /// io::SequenceAppender (the recording is created before the run starts).
   explicit NavigationLoop(NavigationOptions options, std::vector<tracking::HologramModel> models = {});
   ~NavigationLoop();
   NavigationLoop(const NavigationLoop&) = delete;
@@ -289,7 +287,7 @@ class NavigationLoop {
   NavigationOptions options_;
   std::shared_ptr<TransformRepository> repository_;
   std::unique_ptr<tracking::TrackingSource> source_;
-  std::unique_ptr<io::SequenceAppender> recorder_;
+  std::unique_ptr<detail::TrackingRecorder> recorder_;
   std::unique_ptr<detail::VideoRecorder> video_;
   std::unique_ptr<igtlink::Server> server_;
   std::unique_ptr<tracking::HologramStreamer> streamer_;
