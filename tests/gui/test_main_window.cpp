@@ -329,6 +329,9 @@ TEST_F(MainWindowTest, PivotCalibrationFromAPoseFileShowsResidualsPerPose) {
   mrsns::io::writePoseCsv(csv, poses);
 
   auto window = makeWindow();
+  // Without a session there is nowhere to record the calibration: refused with a message.
+  EXPECT_FALSE(window->runPivotCalibration(QString::fromStdString(csv.string())));
+  ASSERT_TRUE(window->createSession(QString::fromStdString((scratch_ / "pivot-session").string()))) << messages();
   QSignalSpy finished(window.get(), &MainWindow::taskFinished);
   ASSERT_TRUE(window->runPivotCalibration(QString::fromStdString(csv.string())));
   ASSERT_TRUE(mrsns::test::waitUntil([&] { return !finished.isEmpty(); }, 20000));
@@ -336,6 +339,10 @@ TEST_F(MainWindowTest, PivotCalibrationFromAPoseFileShowsResidualsPerPose) {
   // The CSV stores 17 significant digits, so the fit is exact to ~1e-9 mm.
   EXPECT_EQ(window->outputPanel()->readout("pivot"), QStringLiteral("0.000 mm"));
   EXPECT_EQ(window->outputPanel()->residualPlot()->pointCount(), poses.size());
+  // Recorded in the session as the pivot-calibration step, with the tip.
+  const auto step = window->sessionState()["steps"]["pivot-calibration"];
+  ASSERT_EQ(step.value("status", ""), "ok") << step.dump();
+  for (int i = 0; i < 3; ++i) EXPECT_NEAR(step["figures"]["tip_marker_mm"][i].get<double>(), tip_marker[i], 1e-6);
 }
 
 TEST_F(MainWindowTest, CancelButtonStopsTheRunningTask) {

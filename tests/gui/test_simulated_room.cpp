@@ -1,6 +1,7 @@
 // The Devices menu drives the simulated operating room as a user would: start
 // mrsns-sim from the GUI, see the SIMULATED banner, connect to it as to a
 // PlusServer, find every tool and the step marked simulated, stop it.
+#include <QAction>
 #include <QLabel>
 #include <QTest>
 #include <fstream>
@@ -43,6 +44,25 @@ TEST_F(SimulatedRoomTest, StartConnectAndStopFromTheDevicesMenu) {
   EXPECT_TRUE(status->text().contains("simulated")) << status->text().toStdString();
   const auto png = mrsns::test::guiArtifactDir() / "main_window_simulated_room_connected.png";
   EXPECT_TRUE(window->saveScreenshot(QString::fromStdString(png.string()))) << messages();
+
+  // The stylus's pivot calibration from the Workflow menu, on the PlusServer the session just connected to:
+  // the default scenario pivots the stylus 25 deg about two axes from 2 s on; the step ends itself once the
+  // swing covers two directions.
+  auto* pivot = window->findChild<QAction*>("actionStep_pivot-calibration");
+  ASSERT_NE(pivot, nullptr);
+  pivot->trigger();
+  ASSERT_TRUE(mrsns::test::waitUntil([&] { return !window->taskRunning(); }, 60000));
+  const auto after_pivot = window->sessionState();
+  const auto& pivot_step = after_pivot["steps"]["pivot-calibration"];
+  ASSERT_EQ(pivot_step.value("status", ""), "ok") << pivot_step.dump() << messages();
+  EXPECT_TRUE(pivot_step["figures"]["simulated"].get<bool>());
+  EXPECT_TRUE(pivot_step["figures"]["recorded"]["complete"].get<bool>());
+  EXPECT_NEAR(pivot_step["figures"]["tip_length_mm"].get<double>(), 160.0, 1.0) << "the scenario's stylus";
+  auto* pivot_status = window->findChild<QLabel*>("status_pivot-calibration");
+  ASSERT_NE(pivot_status, nullptr);
+  EXPECT_TRUE(pivot_status->text().contains("simulated")) << pivot_status->text().toStdString();
+  EXPECT_TRUE(window->saveScreenshot(
+      QString::fromStdString((mrsns::test::guiArtifactDir() / "main_window_simulated_pivot.png").string())));
 
   // The truth stays outside the session folder.
   const auto truth = window->simulatedRoom()->truthFile().toStdString();

@@ -142,6 +142,42 @@ TEST(PivotCalibration, IsInvariantToTheTrackerFrame) {
   EXPECT_LT((other_T_tracker * a.pivot_tracker - b.pivot_tracker).norm(), 1e-8);
 }
 
+// The live feedback's coverage: a two-axis swing uniform in a +/-30 deg square spans, along any direction
+// theta, 60 (|cos theta| + |sin theta|) deg, between 60 and 84.9 (the square's covariance is isotropic, so its
+// principal directions are arbitrary); 200 samples reach within ~2 deg of the ends. A one-axis swing spans
+// 60 deg in the first and only the orientation noise in the second (0.1 deg RMS per axis: 200 Gaussian
+// samples span ~5.5 sigma, 0.55 deg).
+TEST(PivotCoverage, TwoAxisSwingCoversBothDirectionsOneAxisOnlyOne) {
+  std::mt19937 rng(11);
+  PivotScene scene;
+  const auto two = pivotCoverage(pivotPoses(scene, 200, 30 * kDeg, 0.25, 0.1 * kDeg, rng));
+  EXPECT_EQ(two.poses, 200u);
+  EXPECT_GT(two.first_range / kDeg, 56.0);
+  EXPECT_LT(two.first_range / kDeg, 86.0);
+  EXPECT_GT(two.second_range / kDeg, 56.0);
+  EXPECT_LT(two.second_range / kDeg, 86.0);
+  const auto one = pivotCoverage(pivotPoses(scene, 200, 30 * kDeg, 0.25, 0.1 * kDeg, rng, /*one_axis=*/true));
+  EXPECT_NEAR(one.first_range / kDeg, 60.0, 4.0);
+  EXPECT_LT(one.second_range / kDeg, 1.5);
+}
+
+TEST(PivotCoverage, IsInvariantToTheTrackerFrameAndZeroWithoutMotion) {
+  std::mt19937 rng(12);
+  PivotScene scene;
+  const auto poses = pivotPoses(scene, 80, 25 * kDeg, 0.2, 0.05 * kDeg, rng);
+  Eigen::Isometry3d other_T_tracker = Eigen::Isometry3d::Identity();
+  other_T_tracker.linear() = so3Exp(Eigen::Vector3d(-0.7, 1.1, 0.4));
+  other_T_tracker.translation() = Eigen::Vector3d(-50, 200, 900);
+  std::vector<Eigen::Isometry3d> moved;
+  for (const auto& p : poses) moved.push_back(other_T_tracker * p);
+  const auto a = pivotCoverage(poses), b = pivotCoverage(moved);
+  EXPECT_NEAR(a.first_range, b.first_range, 1e-9);
+  EXPECT_NEAR(a.second_range, b.second_range, 1e-9);
+  EXPECT_EQ(pivotCoverage({}).first_range, 0.0);
+  const std::vector<Eigen::Isometry3d> still(10, poses.front());
+  EXPECT_LT(pivotCoverage(still).first_range, 1e-9);
+}
+
 std::vector<Eigen::Isometry3d> spinPoses(const Eigen::Vector3d& shaft_marker, int count, double max_angle,
                                          double sigma_rot, std::mt19937& rng) {
   std::normal_distribution<double> gauss(0.0, 1.0);

@@ -409,11 +409,10 @@ bool MainWindow::importFile(ImportKind kind, const QString& path) {
       [kind, folder, file](const TaskControl& control) { return importIntoSession(kind, file, folder, control); });
 }
 
-bool MainWindow::runPivotCalibration(const QString& pose_csv) {
-  if (refuseWhileBusy(tr("Pivot calibration"))) return false;
-  const auto file = toPath(pose_csv);
-  return tasks_->start(QStringLiteral("pivot-calibration"),
-                       [file](const TaskControl& control) { return pivotFromPoseFile(file, control); });
+bool MainWindow::runPivotCalibration(const QString& recording) {
+  // The session's step on a file: recorded in the session as the live acquisition is.
+  return runStep(QStringLiteral("pivot-calibration"),
+                 nlohmann::json{{"source", "file"}, {"recording", toPath(recording).string()}});
 }
 
 void MainWindow::onTaskStarted(const QString& name) {
@@ -509,8 +508,9 @@ void MainWindow::chooseAndImport(ImportKind kind) {
 }
 
 void MainWindow::chooseAndRunPivot() {
-  const QString path = QFileDialog::getOpenFileName(this, tr("Pivot calibration: pose file"), QString(),
-                                                    tr("Pose CSV (*.csv);;All files (*)"));
+  const QString path = QFileDialog::getOpenFileName(
+      this, tr("Pivot calibration: recording"), QString(),
+      tr("PLUS sequence or pose CSV (*.mha *.mhd *.nrrd *.csv);;All files (*)"));
   if (!path.isEmpty()) runPivotCalibration(path);
 }
 

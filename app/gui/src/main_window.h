@@ -80,7 +80,8 @@ class MainWindow : public QMainWindow {
   /// Reads `path` on the worker, checks it, copies it into the session and shows it.
   bool importFile(ImportKind kind, const QString& path);
   /// Pivot calibration from a CSV of tracker_T_marker poses.
-  bool runPivotCalibration(const QString& pose_csv);
+  /// The pivot-calibration step on a PLUS recording (StylusToReference) or a pose CSV.
+  bool runPivotCalibration(const QString& recording);
   void cancelTask();
   [[nodiscard]] bool taskRunning() const;
 

@@ -303,7 +303,7 @@ void OutputPanel::headlineFromFigures(const std::string& step, const nlohmann::j
     showMm(QStringLiteral("fre"), {"landmarks.fre_rms_mm"}, {"fre"});
     showMm(QStringLiteral("tre"), {"surface.tre.rms"}, {"tre.rms", "tre"});
   } else if (contains(step, "pivot")) {
-    showMm(QStringLiteral("pivot"), {"pivot_rms_mm"}, {"rms", "error"});
+    showMm(QStringLiteral("pivot"), {"rms_mm"}, {"rms", "error"});
   } else if (step == "us-spatial-calibration") {
     showMm(QStringLiteral("us_calibration"),
            {"validation.reprojection_3d_mean_mm", "calibration.reprojection_3d_mean_mm"},

@@ -45,9 +45,10 @@ PreparationPanel::PreparationPanel(QWidget* parent) : QWidget(parent) {
   devices_ = new StepList(tr("Devices"), this);
   registration_ = new StepList(tr("Registration"), this);
   calibration_ = new StepList(tr("Calibration"), this);
-  auto* pivot = new QPushButton(tr("Pivot calibration…"), calibration_);
+  auto* pivot = new QPushButton(tr("Pivot calibration from a file…"), calibration_);
   pivot->setObjectName(QStringLiteral("pivotCalibration"));
-  pivot->setToolTip(tr("Tip offset of a tracked pointer from a pose file (CSV) recorded while pivoting"));
+  pivot->setToolTip(tr("Tip offset of a tracked pointer from a PLUS recording or a pose CSV recorded while "
+                       "pivoting (Tool pivot calibration acquires it live from the tracker)"));
   calibration_->addWidgetRow(pivot);
   import_buttons_.push_back(pivot);
   connect(pivot, &QPushButton::clicked, this, &PreparationPanel::pivotCalibrationRequested);

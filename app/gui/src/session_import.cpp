@@ -10,10 +10,8 @@
 #include "mrsns/io/image_io.h"
 #include "mrsns/io/landmarks_io.h"
 #include "mrsns/io/mesh_io.h"
-#include "mrsns/io/pose_csv.h"
 #include "mrsns/io/screw_path_io.h"
 #include "mrsns/io/sequence_file.h"
-#include "mrsns/registration/pivot_calibration.h"
 #include "mrsns/rendering/scene.h"
 #include "mrsns/rendering/slice_views.h"
 #include "mrsns/workflow/session.h"
@@ -158,29 +156,6 @@ TaskOutcome importIntoSession(ImportKind kind, const fs::path& file, const fs::p
   outcome.ok = true;
   outcome.outputs.push_back(relative.generic_string());
   outcome.summary = QString::fromStdString("imported " + file.filename().string());
-  report(control, 1.0, "done");
-  return outcome;
-}
-
-TaskOutcome pivotFromPoseFile(const fs::path& pose_csv, const TaskControl& control) {
-  report(control, 0.1, "reading " + pose_csv.filename().string());
-  const auto poses = io::readPoseCsv(pose_csv);
-  report(control, 0.4, "calibrating");
-  const auto result = registration::calibratePivot(poses.poses);
-  TaskOutcome outcome;
-  outcome.ok = true;
-  auto& f = outcome.figures;
-  f["pivot_rms_mm"] = result.rms_mm;
-  f["max_residual_mm"] = result.max_residual_mm;
-  f["tip_marker_mm"] = {result.tip_marker.x(), result.tip_marker.y(), result.tip_marker.z()};
-  f["inliers"] = result.inlier_count;
-  f["poses"] = poses.poses.size();
-  f["rotation_range_deg"] = result.rotation_range * 180.0 / M_PI;
-  f["condition_number"] = result.condition_number;
-  f["residuals_mm"] = result.residuals_mm;
-  outcome.summary = QStringLiteral("pivot calibration: RMS %1 mm over %2 poses")
-                        .arg(result.rms_mm, 0, 'f', 3)
-                        .arg(result.inlier_count);
   report(control, 1.0, "done");
   return outcome;
 }

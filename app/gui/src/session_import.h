@@ -35,9 +35,6 @@ std::string importRecordName(ImportKind kind);
 TaskOutcome importIntoSession(ImportKind kind, const std::filesystem::path& file,
                               const std::filesystem::path& session_folder, const TaskControl& control);
 
-/// registration::calibratePivot on the poses of a pose CSV (io::readPoseCsv).
-TaskOutcome pivotFromPoseFile(const std::filesystem::path& pose_csv, const TaskControl& control);
-
 /// Shows every mesh, CT volume and planned path the session refers to (any
 /// string in its state naming an existing file of a known kind). Scene
 /// object names carry their layer as a prefix ("vertebra:", "tissue:",

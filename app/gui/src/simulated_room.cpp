@@ -22,6 +22,9 @@ SimulatedRoom::SimulatedRoom(QObject* parent) : QObject(parent) {
 }
 
 SimulatedRoom::~SimulatedRoom() {
+  // Destroyed with the main window: whoever listens to stopped() may already be half destroyed (a window
+  // closed while the room runs crashed in its status bar), so the room ends without a word.
+  blockSignals(true);
   stop();
 }
 

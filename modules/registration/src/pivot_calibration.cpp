@@ -1,8 +1,10 @@
 #include "mrsns/registration/pivot_calibration.h"
 
+#include <Eigen/Eigenvalues>
 #include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numeric>
 #include <random>
 #include <string>
@@ -163,6 +165,45 @@ PivotResult calibratePivot(std::span<const Eigen::Isometry3d> tracker_T_marker, 
   }
   result.rms_mm = std::sqrt(sum_sq / result.inlier_count);
   return result;
+}
+
+}  // namespace mrsns::registration
+
+namespace mrsns::registration {
+
+PivotCoverage pivotCoverage(std::span<const Eigen::Isometry3d> tracker_T_marker) {
+  PivotCoverage c;
+  c.poses = tracker_T_marker.size();
+  if (c.poses < 2) return c;
+  std::vector<Eigen::Matrix3d> rotations;
+  rotations.reserve(c.poses);
+  for (const auto& p : tracker_T_marker) rotations.push_back(p.linear());
+  RotationAverageOptions options;
+  options.method = RotationMeanMethod::kChordalL2;
+  const Eigen::Matrix3d mean = averageRotations(rotations, options).mean;
+  // Rotation vectors in the marker frame about the mean: their principal directions are the swing axes.
+  std::vector<Eigen::Vector3d> phi;
+  phi.reserve(c.poses);
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+  for (const auto& r : rotations) {
+    phi.push_back(so3Log(mean.transpose() * r));
+    centre += phi.back();
+  }
+  centre /= static_cast<double>(c.poses);
+  Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
+  for (const auto& v : phi) scatter += (v - centre) * (v - centre).transpose();
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(scatter);  // ascending eigenvalues
+  auto extent = [&](const Eigen::Vector3d& axis) {
+    double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+    for (const auto& v : phi) {
+      lo = std::min(lo, v.dot(axis));
+      hi = std::max(hi, v.dot(axis));
+    }
+    return hi - lo;
+  };
+  c.first_range = extent(eig.eigenvectors().col(2));
+  c.second_range = extent(eig.eigenvectors().col(1));
+  return c;
 }
 
 }  // namespace mrsns::registration

@@ -45,6 +45,7 @@ bool findRecordedTransform(const Session& session, const std::string& name, Eige
 Json statsJson(const std::vector<double>& values);
 
 StepResult runConnectDevices(Session& session, const Json& params, const StepContext& context);
+StepResult runPivotCalibration(Session& session, const Json& params, const StepContext& context);
 StepResult runUsSpatialCalibration(Session& session, const Json& params, const StepContext& context);
 StepResult runUsTemporalCalibration(Session& session, const Json& params, const StepContext& context);
 StepResult runRobotCalibration(Session& session, const Json& params, const StepContext& context);

@@ -14,6 +14,8 @@ std::vector<StepInfo> listSteps() {
   return {
       {"connect-devices", "Connect devices", "preparation",
        "Tracker (simulated, PlusServer over OpenIGTLink, or playback of a PLUS recording): tools seen, rate, jitter"},
+      {"pivot-calibration", "Tool pivot calibration", "preparation",
+       "Tip of the stylus (or drill) from pivoting it in a divot, recorded live from the PlusServer"},
       {"us-spatial-calibration", "Ultrasound spatial calibration", "preparation",
        "N-wire calibration of ImageToProbe on a tracked recording (PLUS fCal data by default)"},
       {"us-temporal-calibration", "Ultrasound temporal calibration", "preparation",
@@ -36,6 +38,7 @@ StepResult runStep(Session& session, const std::string& step, const nlohmann::js
   using Runner = StepResult (*)(Session&, const nlohmann::json&, const StepContext&);
   static const std::pair<const char*, Runner> kRunners[] = {
       {"connect-devices", detail::runConnectDevices},
+      {"pivot-calibration", detail::runPivotCalibration},
       {"us-spatial-calibration", detail::runUsSpatialCalibration},
       {"us-temporal-calibration", detail::runUsTemporalCalibration},
       {"robot-calibration", detail::runRobotCalibration},

@@ -52,6 +52,21 @@ struct PivotResult {
   double condition_number = 0.0;
 };
 
+/// How far a pivoting has gone, for live feedback while it is recorded: the
+/// rotation vectors of the poses about their mean orientation, spread along
+/// their two principal directions. A pivot needs rotation about two axes
+/// (about one only, the tip is unobservable along it): `second_range` stays
+/// near the tracker's jitter when the tool is swung in one plane.
+struct PivotCoverage {
+  std::size_t poses = 0;
+  double first_range = 0.0;   ///< extent (max - min) along the direction of largest variance, radians
+  double second_range = 0.0;  ///< extent along the direction of second largest variance, radians
+};
+
+/// Empty input gives zeros. Cost O(n); meant to be called a few times a
+/// second on everything recorded so far.
+PivotCoverage pivotCoverage(std::span<const Eigen::Isometry3d> tracker_T_marker);
+
 /// Throws InvalidArgumentError for NaN poses, ComputationError for degenerate
 /// motion (the message says what to do: pivot more, in two directions, ...).
 PivotResult calibratePivot(std::span<const Eigen::Isometry3d> tracker_T_marker, const PivotOptions& options = {});

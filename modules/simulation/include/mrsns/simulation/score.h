@@ -10,7 +10,8 @@ namespace mrsns::simulation {
 /// knows the answer to (ImageToProbe: corner errors; the temporal
 /// calibration's lag; CTToPatient: error at the fiducials; RobotBaseToTracker:
 /// error at the patient) and returns one JSON object (text) with a figure per
-/// result and the list of results it could not score. Throws FileError or
+/// result and the list of results it could not score. The pivot calibration's
+/// tip is scored against the tool's tip_mm. Throws FileError or
 /// FormatError for an unreadable session or truth file.
 [[nodiscard]] std::string scoreSession(const std::filesystem::path& session_dir,
                                        const std::filesystem::path& truth_file);
