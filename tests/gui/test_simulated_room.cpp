@@ -64,6 +64,19 @@ TEST_F(SimulatedRoomTest, StartConnectAndStopFromTheDevicesMenu) {
   EXPECT_TRUE(window->saveScreenshot(
       QString::fromStdString((mrsns::test::guiArtifactDir() / "main_window_simulated_pivot.png").string())));
 
+  // Connected to a PlusServer, the ultrasound calibrations acquire from it: the temporal one records both
+  // streams live (the default scenario sweeps the probe over the N-wire phantom, not the up/down motion over a
+  // flat target it needs, so its outcome is not judged here, only where its data came from).
+  EXPECT_EQ(window->deviceParams("us-temporal-calibration"), nlohmann::json({{"source", "plus"}}));
+  EXPECT_TRUE(window->deviceParams("registration").empty());
+  window->findChild<QAction*>("actionStep_us-temporal-calibration")->trigger();
+  ASSERT_TRUE(mrsns::test::waitUntil([&] { return !window->taskRunning(); }, 60000));
+  const auto after_temporal = window->sessionState();
+  const auto& temporal = after_temporal["steps"]["us-temporal-calibration"];
+  EXPECT_EQ(temporal["params"].value("source", ""), "plus") << temporal.dump();
+  EXPECT_GT(temporal["figures"]["recorded"]["video_frames"].get<int>(), 100) << temporal.dump();
+  EXPECT_TRUE(temporal["figures"]["simulated"].get<bool>());
+
   // The truth stays outside the session folder.
   const auto truth = window->simulatedRoom()->truthFile().toStdString();
   EXPECT_EQ(truth.find(window->sessionFolder().toStdString()), std::string::npos);

@@ -104,8 +104,10 @@ MainWindow::MainWindow(MainWindowOptions options, QWidget* parent) : QMainWindow
   addDockWidget(Qt::RightDockWidgetArea, output_dock_);
   resizeDocks({preparation_dock_, output_dock_}, {350, 370}, Qt::Horizontal);
 
-  connect(preparation_, &PreparationPanel::runStepRequested, this, [this](const QString& s) { runStep(s); });
-  connect(function_, &FunctionPanel::runStepRequested, this, [this](const QString& s) { runStep(s); });
+  connect(preparation_, &PreparationPanel::runStepRequested, this,
+          [this](const QString& s) { runStep(s, deviceParams(s)); });
+  connect(function_, &FunctionPanel::runStepRequested, this,
+          [this](const QString& s) { runStep(s, deviceParams(s)); });
   connect(preparation_, &PreparationPanel::importRequested, this, &MainWindow::chooseAndImport);
   connect(preparation_, &PreparationPanel::pivotCalibrationRequested, this, &MainWindow::chooseAndRunPivot);
   connect(function_, &FunctionPanel::robotStopRequested, this, [this] {
@@ -219,7 +221,7 @@ void MainWindow::buildMenus() {
     // Ctrl+1..9 run the steps in the order of the paper's workflow.
     const QKeySequence keys = index < 9 ? QKeySequence(QStringLiteral("Ctrl+%1").arg(index + 1)) : QKeySequence();
     const QString name = toQ(info.name);
-    add(steps, toQ(info.title), keys, QStringLiteral("actionStep_") + name, [this, name] { runStep(name); });
+    add(steps, toQ(info.title), keys, QStringLiteral("actionStep_") + name, [this, name] { runStep(name, deviceParams(name)); });
     ++index;
   }
   steps->addSeparator();

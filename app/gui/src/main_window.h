@@ -77,6 +77,9 @@ class MainWindow : public QMainWindow {
   /// Starts a workflow step on the worker; false when refused (no session,
   /// another task running), with a message.
   bool runStep(const QString& step, const nlohmann::json& params = nlohmann::json::object());
+  /// The parameters a step runs with from the GUI: source=plus for the ultrasound calibrations once the
+  /// session is connected to a PlusServer (connect-devices with source=plus), none otherwise.
+  [[nodiscard]] nlohmann::json deviceParams(const QString& step) const;
   /// Reads `path` on the worker, checks it, copies it into the session and shows it.
   bool importFile(ImportKind kind, const QString& path);
   /// Pivot calibration from a CSV of tracker_T_marker poses.

@@ -10,6 +10,7 @@
 #include <QStatusBar>
 
 #include "main_window.h"
+#include "mrsns/workflow/session.h"
 #include "simulated_room.h"
 
 namespace mrsns::gui {
@@ -73,6 +74,20 @@ bool MainWindow::connectDevices() {
     params["port"] = sim_room_->endpoints().plus_port;
   }
   return runStep(QStringLiteral("connect-devices"), params);
+}
+
+nlohmann::json MainWindow::deviceParams(const QString& step) const {
+  // Once the session is connected to a PlusServer, the ultrasound calibrations acquire from it, as fCal does;
+  // without one they run on the recordings they name (the bundled fCal data by default).
+  nlohmann::json params = nlohmann::json::object();
+  if (!session_ || (step != QStringLiteral("us-spatial-calibration") && step != QStringLiteral("us-temporal-calibration")))
+    return params;
+  const auto devices = session_->step("connect-devices");
+  if (devices.is_object() && devices.value("status", "") == "ok" && devices.contains("params") &&
+      devices["params"].value("source", "") == "plus") {
+    params["source"] = "plus";
+  }
+  return params;
 }
 
 }  // namespace mrsns::gui

@@ -103,6 +103,16 @@ LiveUsRecording recordLiveUltrasound(const LiveUsRecordingOptions& options, cons
 
   std::lock_guard lock(mutex);
   if (images.empty()) throw NetworkError("the PlusServer sent no ultrasound frame");
+  std::map<double, TrackedFrame> by_time;
+  for (const auto& [name, samples] : poses) {
+    for (const auto& [t, pose] : samples) {
+      auto& f = by_time[t];
+      f.timestamp = t;
+      f.transforms[name] = FrameTransform{pose.matrix(), TransformStatus::Ok};
+    }
+  }
+  out.tracker_frames.reserve(by_time.size());
+  for (auto& [t, f] : by_time) out.tracker_frames.push_back(std::move(f));
   TrackedSequence& seq = out.sequence;
   const auto& first = images.front();
   seq.geometry = first.geometry;

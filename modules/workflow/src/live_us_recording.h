@@ -21,6 +21,9 @@ struct LiveUsRecordingOptions {
 
 struct LiveUsRecording {
   TrackedSequence sequence;
+  /// The tracker's own samples, each at its own timestamp (PLUS's tracker buffer: 0x0 frames), every tool
+  /// sampled at that instant in the frame: what a temporal calibration compares with the video.
+  std::vector<TrackedFrame> tracker_frames;
   std::string device_identity;
   std::size_t frames_refused = 0;  ///< other size or format than the first frame
   std::size_t tool_samples = 0;

@@ -41,6 +41,13 @@ Json matrixJson(const Eigen::Matrix4d& m);
 Eigen::Matrix4d matrixFromJson(const Json& j, const std::string& what);
 /// The transform `name` ("ImageToProbe") recorded by an earlier step, if any.
 bool findRecordedTransform(const Session& session, const std::string& name, Eigen::Matrix4d& out);
+/// The first "<folder>/<stem><ext>", "<folder>/<stem>_2<ext>", ... not yet in the session: a repeated
+/// acquisition never overwrites an earlier one. Creates the folder.
+std::string freeSessionName(const Session& session, const std::string& folder, const std::string& stem,
+                            const std::string& ext);
+/// host and port of the PlusServer the session's connect-devices step used (when it ran with source=plus),
+/// overridden by the step's own host/port parameters.
+void sessionPlusServer(const Session& session, const Params& p, std::string& host, int& port);
 /// RMS, mean, max of values.
 Json statsJson(const std::vector<double>& values);
 
@@ -48,6 +55,8 @@ StepResult runConnectDevices(Session& session, const Json& params, const StepCon
 StepResult runPivotCalibration(Session& session, const Json& params, const StepContext& context);
 StepResult runUsSpatialCalibration(Session& session, const Json& params, const StepContext& context);
 StepResult runUsTemporalCalibration(Session& session, const Json& params, const StepContext& context);
+/// us-temporal-calibration with source=plus: the up/down motion over a flat target recorded live.
+StepResult runLiveTemporalCalibration(Session& session, const Params& p, const StepContext& context);
 StepResult runRobotCalibration(Session& session, const Json& params, const StepContext& context);
 StepResult runRegistration(Session& session, const Json& params, const StepContext& context);
 StepResult runHmdCalibration(Session& session, const Json& params, const StepContext& context);

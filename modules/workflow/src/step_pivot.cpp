@@ -46,26 +46,6 @@ std::vector<Eigen::Isometry3d> posesOf(const std::vector<TrackedFrame>& frames, 
   return poses;
 }
 
-// The first recording name not taken: a repeated acquisition never overwrites an earlier one.
-std::string freeRecordingName(const Session& session, const std::string& stem) {
-  for (int n = 1;; ++n) {
-    const std::string name = "pivot-calibration/" + stem + (n == 1 ? "" : "_" + std::to_string(n)) + ".mhd";
-    if (!std::filesystem::exists(session.resolve(name))) return name;
-  }
-}
-
-// Where the session's tracker is: the connect-devices step's PlusServer, unless given.
-void plusEndpoint(const Session& session, const Params& p, LiveTrackingOptions& o) {
-  const auto devices = session.step("connect-devices");
-  if (devices.is_object() && devices.value("status", "") == "ok" && devices.contains("params") &&
-      devices["params"].value("source", "") == "plus") {
-    o.host = devices["params"].value("host", o.host);
-    o.port = devices["params"].value("port", o.port);
-  }
-  o.host = p.text("host", o.host);
-  o.port = p.integer("port", o.port);
-}
-
 std::string swingText(const registration::PivotCoverage& c) {
   return formatFixed(c.first_range / kDeg, 0) + " x " + formatFixed(c.second_range / kDeg, 0) + " deg";
 }
@@ -103,14 +83,13 @@ StepResult runPivotCalibration(Session& session, const Json& params, const StepC
   if (source == "plus") {
     if (p.has("recording")) throw InvalidArgumentError("pivot-calibration: recording is for source=file");
     LiveTrackingOptions live;
-    plusEndpoint(session, p, live);
+    sessionPlusServer(session, p, live.host, live.port);
     live.max_duration_s = p.number("duration_s", live.max_duration_s);
     live.connect_timeout_s = p.number("connect_timeout_s", live.connect_timeout_s);
     if (!(live.max_duration_s > 0.0 && live.max_duration_s <= 600.0) || !(live.connect_timeout_s > 0.0)) {
       throw InvalidArgumentError("pivot-calibration: duration_s must be in (0, 600] s, connect_timeout_s > 0");
     }
-    std::filesystem::create_directories(session.resolve("pivot-calibration"));
-    recording = freeRecordingName(session, o.tool + "Pivot");
+    recording = freeSessionName(session, "pivot-calibration", o.tool + "Pivot", ".mhd");
     live.recording = session.resolve(recording);
     context.report(0.05, "connecting to the tracker at " + live.host + ":" + std::to_string(live.port) +
                              ": put the " + o.tool + "'s tip in the divot");

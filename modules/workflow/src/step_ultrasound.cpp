@@ -19,7 +19,6 @@ constexpr const char* kConfig = "plus/PlusDeviceSet_fCal_Sim_SpatialCalibration_
 constexpr const char* kCalibration = "plus/fCal_Test_Calibration_3NWires.igs.mha";
 constexpr const char* kValidation = "plus/fCal_Test_Validation_3NWires.igs.mha";
 // Where a live calibration sweep is recorded in the session.
-constexpr const char* kLiveSweep = "us-spatial-calibration/calibration_sweep.igs.mha";
 
 std::filesystem::path dataPath(const Params& p, const std::string& key, const char* relative) {
   if (p.has(key)) {
@@ -79,14 +78,14 @@ StepResult runUsSpatialCalibration(Session& session, const Json& params, const S
   // source=plus: the calibration sweep is recorded live from a PlusServer (or mrsns-sim) into the session first,
   // as fCal does; the step then calibrates on that recording, which the offline verbs can recompute.
   std::optional<LiveUsRecording> live;
+  std::string live_sweep;
   const std::string source = p.text("source", "file");
   if (source == "plus") {
     if (p.has("calibration")) {
       throw InvalidArgumentError("us-spatial-calibration: give either source=plus (record the sweep) or calibration");
     }
     LiveUsRecordingOptions o;
-    o.host = p.text("host", o.host);
-    o.port = p.integer("port", o.port);
+    sessionPlusServer(session, p, o.host, o.port);
     o.max_duration_s = p.number("duration_s", o.max_duration_s);
     o.idle_stop_s = p.number("idle_stop_s", o.idle_stop_s);
     o.connect_timeout_s = p.number("connect_timeout_s", o.connect_timeout_s);
@@ -97,8 +96,8 @@ StepResult runUsSpatialCalibration(Session& session, const Json& params, const S
     }
     context.report(0.05, "recording the calibration sweep from " + o.host + ":" + std::to_string(o.port));
     live = recordLiveUltrasound(o, context);
-    std::filesystem::create_directories(session.resolve("us-spatial-calibration"));
-    io::writeSequence(session.resolve(kLiveSweep), live->sequence);
+    live_sweep = freeSessionName(session, "us-spatial-calibration", "calibration_sweep", ".igs.mha");
+    io::writeSequence(session.resolve(live_sweep), live->sequence);
   } else if (source != "file") {
     throw InvalidArgumentError("us-spatial-calibration: source must be file or plus, not '" + source + "'");
   }
@@ -173,8 +172,8 @@ StepResult runUsSpatialCalibration(Session& session, const Json& params, const S
   result.outputs = {output};
   if (live) {
     const bool simulated = live->device_identity.rfind("mrsns-sim", 0) == 0;
-    result.outputs.push_back(kLiveSweep);
-    result.figures["recorded"] = {{"file", kLiveSweep},
+    result.outputs.push_back(live_sweep);
+    result.figures["recorded"] = {{"file", live_sweep},
                                   {"frames", live->sequence.frames.size()},
                                   {"frames_refused", live->frames_refused},
                                   {"tool_samples", live->tool_samples},
@@ -199,9 +198,28 @@ StepResult runUsSpatialCalibration(Session& session, const Json& params, const S
   return result;
 }
 
-StepResult runUsTemporalCalibration(Session& /*session*/, const Json& params, const StepContext& context) {
+StepResult runUsTemporalCalibration(Session& session, const Json& params, const StepContext& context) {
   const Params p("us-temporal-calibration", params,
-                 {"config", "calibration", "validation", "search_half_range_ms", "search_step_ms"});
+                 {"config", "calibration", "validation", "search_half_range_ms", "search_step_ms", "source", "host",
+                  "port", "duration_s", "idle_stop_s", "connect_timeout_s", "transform", "max_lag_ms"});
+  const std::string source = p.text("source", "file");
+  if (source == "plus") {
+    for (const char* key : {"config", "calibration", "validation", "search_half_range_ms", "search_step_ms"}) {
+      if (p.has(key)) {
+        throw InvalidArgumentError(std::string("us-temporal-calibration: ") + key +
+                                   " is for the N-wire recording (source=file), not a live up/down motion");
+      }
+    }
+    return runLiveTemporalCalibration(session, p, context);
+  }
+  if (source != "file") {
+    throw InvalidArgumentError("us-temporal-calibration: source must be file or plus, not '" + source + "'");
+  }
+  for (const char* key : {"host", "port", "duration_s", "idle_stop_s", "connect_timeout_s", "transform", "max_lag_ms"}) {
+    if (p.has(key)) {
+      throw InvalidArgumentError(std::string("us-temporal-calibration: ") + key + " is for source=plus");
+    }
+  }
   const Inputs in = readInputs(p, context);
   ultrasound::TrackerLagOptions lag;
   lag.estimate = true;

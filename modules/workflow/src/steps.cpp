@@ -3,6 +3,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <filesystem>
 
 #include "mrsns/core/error.h"
 #include "mrsns/core/log.h"
@@ -85,6 +86,26 @@ StepResult runStep(Session& session, const std::string& step, const nlohmann::js
 }
 
 namespace detail {
+
+std::string freeSessionName(const Session& session, const std::string& folder, const std::string& stem,
+                            const std::string& ext) {
+  std::filesystem::create_directories(session.resolve(folder));
+  for (int n = 1;; ++n) {
+    const std::string name = folder + "/" + stem + (n == 1 ? "" : "_" + std::to_string(n)) + ext;
+    if (!std::filesystem::exists(session.resolve(name))) return name;
+  }
+}
+
+void sessionPlusServer(const Session& session, const Params& p, std::string& host, int& port) {
+  const auto devices = session.step("connect-devices");
+  if (devices.is_object() && devices.value("status", "") == "ok" && devices.contains("params") &&
+      devices["params"].value("source", "") == "plus") {
+    host = devices["params"].value("host", host);
+    port = devices["params"].value("port", port);
+  }
+  host = p.text("host", host);
+  port = p.integer("port", port);
+}
 
 Params::Params(const std::string& step, const Json& params, std::initializer_list<const char*> known)
     : step_(step), params_(params) {
