@@ -36,7 +36,7 @@ TEST(CliSession, CreateRunInfoRoundTrip) {
     }
   }
   EXPECT_TRUE(found);
-  EXPECT_EQ(info["steps"].size(), 8u);
+  EXPECT_EQ(info["steps"].size(), 9u) << "every workflow step, run or not";
 }
 
 TEST(CliSession, SampleSessionAndStepList) {
@@ -48,7 +48,9 @@ TEST(CliSession, SampleSessionAndStepList) {
   EXPECT_TRUE(std::filesystem::exists(dir / "session.json"));
   r = runCli({"session", "steps", "--json"});
   ASSERT_EQ(r.exit_code, 0) << r.err;
-  EXPECT_EQ(nlohmann::json::parse(r.out)["steps"].size(), 8u);
+  const auto steps = nlohmann::json::parse(r.out)["steps"];
+  ASSERT_EQ(steps.size(), 9u);
+  EXPECT_EQ(steps[1]["name"], "pivot-calibration") << "the tools are calibrated before anything uses them";
 }
 
 TEST(CliSession, ErrorsAreOneLineWithExitCodes) {
