@@ -60,16 +60,9 @@ class FrameAssembler {
 
 LiveTrackingRecording recordLiveTracking(const LiveTrackingOptions& options, const LiveTrackingMonitor& monitor,
                                          const StepContext& context) {
-  if (options.port <= 0 || options.port > 65535) {
-    throw InvalidArgumentError("PlusServer port " + std::to_string(options.port) + " is not in 1..65535");
-  }
+  const auto igtl = plusClientOptions(options.host, options.port);
   io::SequenceAppender appender(options.recording, io::SequenceAppender::trackerOnlyLayout());
-  auto repository = std::make_shared<TransformRepository>();
-  tracking::IgtlSourceOptions igtl;
-  igtl.client.host = options.host;
-  igtl.client.port = static_cast<std::uint16_t>(options.port);
-  igtl.identify_device = true;
-  tracking::IgtlTrackingSource source(repository, igtl);
+  tracking::IgtlTrackingSource source(std::make_shared<TransformRepository>(), igtl);
 
   std::mutex mutex;
   FrameAssembler assembler;

@@ -32,15 +32,8 @@ std::optional<Eigen::Isometry3d> interpolateAt(const std::vector<std::pair<doubl
 }  // namespace
 
 LiveUsRecording recordLiveUltrasound(const LiveUsRecordingOptions& options, const StepContext& context) {
-  if (options.port <= 0 || options.port > 65535) {
-    throw InvalidArgumentError("PlusServer port " + std::to_string(options.port) + " is not in 1..65535");
-  }
-  auto repository = std::make_shared<TransformRepository>();
-  tracking::IgtlSourceOptions igtl;
-  igtl.client.host = options.host;
-  igtl.client.port = static_cast<std::uint16_t>(options.port);
-  igtl.identify_device = true;
-  tracking::IgtlTrackingSource source(repository, igtl);
+  const auto igtl = plusClientOptions(options.host, options.port);
+  tracking::IgtlTrackingSource source(std::make_shared<TransformRepository>(), igtl);
 
   std::mutex mutex;
   std::map<std::string, std::vector<std::pair<double, Eigen::Isometry3d>>> poses;

@@ -7,6 +7,7 @@
 #include <string>
 
 #include "mrsns/core/error.h"
+#include "mrsns/tracking/igtl_source.h"
 #include "mrsns/workflow/steps.h"
 
 namespace mrsns::workflow::detail {
@@ -48,6 +49,9 @@ std::string freeSessionName(const Session& session, const std::string& folder, c
 /// host and port of the PlusServer the session's connect-devices step used (when it ran with source=plus),
 /// overridden by the step's own host/port parameters.
 void sessionPlusServer(const Session& session, const Params& p, std::string& host, int& port);
+/// The options of a PlusServer client for a live acquisition (asking the device who it is); throws
+/// InvalidArgumentError naming the port when it is not in 1..65535.
+tracking::IgtlSourceOptions plusClientOptions(const std::string& host, int port);
 /// RMS, mean, max of values.
 Json statsJson(const std::vector<double>& values);
 

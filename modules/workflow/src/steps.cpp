@@ -96,6 +96,17 @@ std::string freeSessionName(const Session& session, const std::string& folder, c
   }
 }
 
+tracking::IgtlSourceOptions plusClientOptions(const std::string& host, int port) {
+  if (port <= 0 || port > 65535) {
+    throw InvalidArgumentError("PlusServer port " + std::to_string(port) + " is not in 1..65535");
+  }
+  tracking::IgtlSourceOptions igtl;
+  igtl.client.host = host;
+  igtl.client.port = static_cast<std::uint16_t>(port);
+  igtl.identify_device = true;
+  return igtl;
+}
+
 void sessionPlusServer(const Session& session, const Params& p, std::string& host, int& port) {
   const auto devices = session.step("connect-devices");
   if (devices.is_object() && devices.value("status", "") == "ok" && devices.contains("params") &&
