@@ -116,6 +116,15 @@ TEST(PivotCalibration, RefusesRotationAboutOneAxisOnly) {
   const auto poses = pivotPoses(scene, 100, 40 * kDeg, 0.0, 0.0, rng, /*one_axis=*/true);
   PivotOptions options;
   EXPECT_THROW(calibratePivot(poses, options), ComputationError);
+  // In the operator's terms, from the coverage, also with tracker noise (which keeps the condition number finite).
+  const auto noisy = pivotPoses(scene, 100, 40 * kDeg, 0.25, 0.1 * kDeg, rng, /*one_axis=*/true);
+  try {
+    calibratePivot(noisy, options);
+    FAIL() << "expected ComputationError";
+  } catch (const ComputationError& e) {
+    EXPECT_NE(std::string(e.what()).find("one direction only"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("two directions"), std::string::npos) << e.what();
+  }
 }
 
 TEST(PivotCalibration, RefusesNaNPoses) {

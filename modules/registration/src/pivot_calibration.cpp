@@ -87,6 +87,17 @@ PivotResult calibratePivot(std::span<const Eigen::Isometry3d> tracker_T_marker, 
                            " deg (at least " + formatFixed(options.min_rotation_range * kRadToDeg, 1) +
                            " deg needed): pivot the tool further, in two directions, keeping the tip in the divot");
   }
+  // Swung in one plane, the tip is unobservable along the swing's axis: say so in the operator's terms before
+  // the condition number says it in a numerical analyst's.
+  const auto coverage = pivotCoverage(tracker_T_marker);
+  if (coverage.second_range < options.min_rotation_range) {
+    throw ComputationError("pivot calibration: the tool was pivoted in one direction only (swing " +
+                           formatFixed(coverage.first_range * kRadToDeg, 0) + " x " +
+                           formatFixed(coverage.second_range * kRadToDeg, 0) +
+                           " deg): pivot it in a cone, in two directions, at least " +
+                           formatFixed(options.min_rotation_range * kRadToDeg, 0) +
+                           " deg each, keeping the tip in the divot");
+  }
 
   if (options.robust) {
     // RANSAC on 3-pose subsets (2 poses determine the tip only when their

@@ -169,15 +169,6 @@ StepResult runPivotCalibration(Session& session, const Json& params, const StepC
   result.figures["offline_command"] = offline.str();
   const std::string kept = recording.empty() ? "" : " (the recording is kept: " + recording + ")";
 
-  // One swing direction only leaves the tip unobservable along the axis: say so in the operator's terms.
-  if (poses.size() >= 2 && coverage.second_range < o.min_rotation_deg * kDeg &&
-      coverage.first_range >= o.min_rotation_deg * kDeg) {
-    result.ok = false;
-    result.summary = "the " + o.tool + " was pivoted in one direction only (swing " + swingText(coverage) +
-                     "): pivot it in a cone, in two directions, at least " + formatFixed(o.min_rotation_deg, 0) +
-                     " deg each" + kept;
-    return result;
-  }
   registration::PivotOptions po;
   po.robust = o.robust;
   po.inlier_threshold_mm = o.inlier_threshold_mm;

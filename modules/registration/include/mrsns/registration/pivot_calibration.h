@@ -68,7 +68,9 @@ struct PivotCoverage {
 PivotCoverage pivotCoverage(std::span<const Eigen::Isometry3d> tracker_T_marker);
 
 /// Throws InvalidArgumentError for NaN poses, ComputationError for degenerate
-/// motion (the message says what to do: pivot more, in two directions, ...).
+/// motion (the message says what to do: pivot more, in two directions, ...):
+/// among others when pivotCoverage's second range is below min_rotation_range
+/// (a swing in one plane).
 PivotResult calibratePivot(std::span<const Eigen::Isometry3d> tracker_T_marker, const PivotOptions& options = {});
 
 }  // namespace mrsns::registration
