@@ -12,7 +12,8 @@ TrackingRecorder::TrackingRecorder(const std::filesystem::path& path, double syn
     : appender_(std::make_unique<io::SequenceAppender>(path, io::SequenceAppender::trackerOnlyLayout(),
                                                        io::SequenceAppenderOptions{sync_interval_s})),
       max_queued_(std::max<std::size_t>(max_queued, 1)) {
-  thread_ = std::thread([this] { run(); });
+  writer_ = std::make_unique<QueuedWriter<TrackedFrame>>(
+      max_queued_, WhenFull::DropNewest, [this](TrackedFrame& f) { write(f); }, [this] { finish(); });
 }
 
 TrackingRecorder::~TrackingRecorder() {
@@ -21,22 +22,16 @@ TrackingRecorder::~TrackingRecorder() {
 
 void TrackingRecorder::push(TrackedFrame frame) noexcept {
   try {
-    {
+    // The newest is dropped, not the oldest: the file keeps a contiguous record up to the stall.
+    if (writer_->push(std::move(frame)) == Pushed::Dropped) {
       std::lock_guard lock(mutex_);
-      if (stopping_) return;
-      if (queue_.size() >= max_queued_) {
-        // The newest is dropped, not the oldest: the file keeps a contiguous record up to the stall.
-        ++stats_.dropped;
-        if (stats_.error.empty()) {
-          stats_.error = "the disk has not taken a tracking frame for " + std::to_string(max_queued_) +
-                         " frames: later frames are not recorded";
-          logger()->warn("navigation recording: {}", stats_.error);
-        }
-        return;
+      ++stats_.dropped;
+      if (stats_.error.empty()) {
+        stats_.error = "the disk has not taken a tracking frame for " + std::to_string(max_queued_) +
+                       " frames: later frames are not recorded";
+        logger()->warn("navigation recording: {}", stats_.error);
       }
-      queue_.push_back(std::move(frame));
     }
-    wake_.notify_one();
   } catch (const std::exception& e) {  // out of memory for the queue: count it, carry on
     std::lock_guard lock(mutex_);
     ++stats_.dropped;
@@ -45,12 +40,7 @@ void TrackingRecorder::push(TrackedFrame frame) noexcept {
 }
 
 void TrackingRecorder::stop() noexcept {
-  {
-    std::lock_guard lock(mutex_);
-    stopping_ = true;
-  }
-  wake_.notify_all();
-  if (thread_.joinable()) thread_.join();
+  writer_->stop();
 }
 
 TrackingRecorderStats TrackingRecorder::stats() const {
@@ -58,26 +48,19 @@ TrackingRecorderStats TrackingRecorder::stats() const {
   return stats_;
 }
 
-void TrackingRecorder::run() {
-  while (true) {
-    TrackedFrame frame;
-    {
-      std::unique_lock lock(mutex_);
-      wake_.wait(lock, [this] { return !queue_.empty() || stopping_; });
-      if (queue_.empty()) break;  // stopping, and everything queued is written
-      frame = std::move(queue_.front());
-      queue_.pop_front();
-    }
-    const bool ok = appender_->append(frame);
-    std::lock_guard lock(mutex_);
-    if (ok) {
-      ++stats_.recorded;
-    } else {
-      ++stats_.dropped;
-      if (stats_.error.empty()) stats_.error = appender_->lastError();
-    }
-    stats_.synced = appender_->framesSynced();
+void TrackingRecorder::write(TrackedFrame& frame) {
+  const bool ok = appender_->append(frame);
+  std::lock_guard lock(mutex_);
+  if (ok) {
+    ++stats_.recorded;
+  } else {
+    ++stats_.dropped;
+    if (stats_.error.empty()) stats_.error = appender_->lastError();
   }
+  stats_.synced = appender_->framesSynced();
+}
+
+void TrackingRecorder::finish() {
   const bool ok = appender_->sync();
   std::lock_guard lock(mutex_);
   if (!ok && stats_.error.empty()) stats_.error = appender_->lastError();

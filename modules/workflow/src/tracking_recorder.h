@@ -7,16 +7,14 @@
 // Unlike the video, tracking frames are small and none may be lost: the
 // queue holds minutes of them, and only a disk that stays stalled that long
 // makes it drop (counted, with the reason).
-#include <condition_variable>
 #include <cstdint>
-#include <deque>
 #include <filesystem>
 #include <memory>
 #include <mutex>
 #include <string>
-#include <thread>
 
 #include "mrsns/core/tracked_frame.h"
+#include "queued_writer.h"
 
 namespace mrsns::io {
 class SequenceAppender;
@@ -48,16 +46,14 @@ class TrackingRecorder {
   [[nodiscard]] TrackingRecorderStats stats() const;
 
  private:
-  void run();
+  void write(TrackedFrame& frame);
+  void finish();
 
   std::unique_ptr<io::SequenceAppender> appender_;  // the writer thread's alone once it runs
   std::size_t max_queued_;
-  mutable std::mutex mutex_;  // guards queue_, stats_, stopping_
-  std::condition_variable wake_;
-  std::deque<TrackedFrame> queue_;
+  mutable std::mutex mutex_;  // guards stats_
   TrackingRecorderStats stats_;
-  bool stopping_ = false;
-  std::thread thread_;
+  std::unique_ptr<QueuedWriter<TrackedFrame>> writer_;  // last: its thread uses the members above
 };
 
 }  // namespace mrsns::workflow::detail

@@ -21,8 +21,10 @@ std::string sizeText(const std::array<std::int64_t, 3>& s) {
 }  // namespace
 
 VideoRecorder::VideoRecorder(std::filesystem::path path, double sync_interval_s, std::size_t max_queued)
-    : path_(std::move(path)), sync_interval_s_(sync_interval_s), max_queued_(std::max<std::size_t>(max_queued, 1)) {
-  thread_ = std::thread([this] { run(); });
+    : path_(std::move(path)), sync_interval_s_(sync_interval_s) {
+  writer_ = std::make_unique<QueuedWriter<tracking::TrackedImage>>(
+      max_queued, WhenFull::DropOldest, [this](tracking::TrackedImage& image) { write(image); },
+      [this] { finish(); });
 }
 
 VideoRecorder::~VideoRecorder() {
@@ -31,17 +33,11 @@ VideoRecorder::~VideoRecorder() {
 
 void VideoRecorder::push(const tracking::TrackedImage& image) noexcept {
   try {
-    {
+    if (writer_->push(image) == Pushed::Dropped) {
       std::lock_guard lock(mutex_);
-      if (stopping_) return;
-      if (queue_.size() >= max_queued_) {
-        queue_.pop_front();
-        ++stats_.dropped;
-        if (stats_.error.empty()) stats_.error = "video frames arrive faster than the disk takes them: oldest dropped";
-      }
-      queue_.push_back(image);
+      ++stats_.dropped;
+      if (stats_.error.empty()) stats_.error = "video frames arrive faster than the disk takes them: oldest dropped";
     }
-    wake_.notify_one();
   } catch (const std::exception& e) {  // out of memory for a copy: count it, carry on
     std::lock_guard lock(mutex_);
     ++stats_.dropped;
@@ -50,12 +46,7 @@ void VideoRecorder::push(const tracking::TrackedImage& image) noexcept {
 }
 
 void VideoRecorder::stop() noexcept {
-  {
-    std::lock_guard lock(mutex_);
-    stopping_ = true;
-  }
-  wake_.notify_all();
-  if (thread_.joinable()) thread_.join();
+  writer_->stop();
 }
 
 VideoRecorderStats VideoRecorder::stats() const {
@@ -63,23 +54,11 @@ VideoRecorderStats VideoRecorder::stats() const {
   return stats_;
 }
 
-void VideoRecorder::run() {
-  while (true) {
-    tracking::TrackedImage image;
-    {
-      std::unique_lock lock(mutex_);
-      wake_.wait(lock, [this] { return !queue_.empty() || stopping_; });
-      if (queue_.empty()) break;  // stopping, and everything queued is written
-      image = std::move(queue_.front());
-      queue_.pop_front();
-    }
-    write(image);
-  }
-  if (appender_) {
-    appender_->sync();
-    std::lock_guard lock(mutex_);
-    stats_.synced = appender_->framesSynced();
-  }
+void VideoRecorder::finish() {
+  if (!appender_) return;
+  appender_->sync();
+  std::lock_guard lock(mutex_);
+  stats_.synced = appender_->framesSynced();
 }
 
 void VideoRecorder::write(const tracking::TrackedImage& image) {

@@ -5,17 +5,15 @@
 // this recorder's own thread, so neither the source nor the loop that feeds
 // the robot's supervisor ever waits for the disk. A full queue drops its
 // oldest frame (counted) rather than block a real-time caller.
-#include <condition_variable>
 #include <cstdint>
-#include <deque>
 #include <filesystem>
 #include <memory>
 #include <mutex>
 #include <string>
-#include <thread>
 
 #include "mrsns/core/tracked_frame.h"
 #include "mrsns/tracking/tracking_source.h"
+#include "queued_writer.h"
 
 namespace mrsns::io {
 class SequenceAppender;
@@ -47,20 +45,16 @@ class VideoRecorder {
   [[nodiscard]] const std::filesystem::path& path() const { return path_; }
 
  private:
-  void run();
   void write(const tracking::TrackedImage& image);
+  void finish();
 
   std::filesystem::path path_;
   double sync_interval_s_;
-  std::size_t max_queued_;
   std::unique_ptr<io::SequenceAppender> appender_;  // the writer thread's alone, as layout_
   TrackedSequence layout_;
-  mutable std::mutex mutex_;  // guards queue_, stats_, stopping_
-  std::condition_variable wake_;
-  std::deque<tracking::TrackedImage> queue_;
+  mutable std::mutex mutex_;  // guards stats_
   VideoRecorderStats stats_;
-  bool stopping_ = false;
-  std::thread thread_;
+  std::unique_ptr<QueuedWriter<tracking::TrackedImage>> writer_;  // last: its thread uses the members above
 };
 
 }  // namespace mrsns::workflow::detail
