@@ -24,6 +24,9 @@ TEST(CliTrial, ShortTrialReportHasEveryFigure) {
   const auto report = nlohmann::json::parse(in);
   const auto& steps = report["steps"];
   const bool have_plus = findDataFile("plus/fCal_Test_Calibration_3NWires.igs.mha").has_value();
+  if (!have_plus && test::missingDataFails()) {
+    FAIL() << test::missingDataMessage("plus/fCal_Test_Calibration_3NWires.igs.mha");
+  }
   // Each module's figures (JSON pointers into steps/<step>/figures).
   const std::vector<std::pair<std::string, std::vector<std::string>>> expected = {
       {"connect-devices", {"/rate_hz", "/tools/ProbeToTracker/ok"}},

@@ -1,0 +1,25 @@
+# Runs COMMAND (a ;-list) with the environment ENV (a ;-list of NAME=VALUE)
+# and checks its exit status and output: EXPECT_EXIT is "zero" or "nonzero",
+# EXPECT_OUTPUT a regular expression the combined stdout+stderr must match.
+# Used as: cmake -DCOMMAND=... -DENV=... -DEXPECT_EXIT=... -DEXPECT_OUTPUT=... -P run_and_match.cmake
+foreach(_var COMMAND EXPECT_EXIT EXPECT_OUTPUT)
+  if(NOT DEFINED ${_var})
+    message(FATAL_ERROR "run_and_match.cmake: ${_var} is not set")
+  endif()
+endforeach()
+set(_env_args "")
+foreach(_pair IN LISTS ENV)
+  list(APPEND _env_args "${_pair}")
+endforeach()
+execute_process(COMMAND ${CMAKE_COMMAND} -E env ${_env_args} ${COMMAND}
+  RESULT_VARIABLE _rc OUTPUT_VARIABLE _out ERROR_VARIABLE _err)
+set(_all "${_out}${_err}")
+if(EXPECT_EXIT STREQUAL "zero" AND NOT _rc EQUAL 0)
+  message(FATAL_ERROR "expected exit 0, got ${_rc}:\n${_all}")
+elseif(EXPECT_EXIT STREQUAL "nonzero" AND _rc EQUAL 0)
+  message(FATAL_ERROR "expected a failure, got exit 0:\n${_all}")
+endif()
+if(NOT _all MATCHES "${EXPECT_OUTPUT}")
+  message(FATAL_ERROR "the output does not match '${EXPECT_OUTPUT}':\n${_all}")
+endif()
+message(STATUS "exit ${_rc}, output matches '${EXPECT_OUTPUT}'")
