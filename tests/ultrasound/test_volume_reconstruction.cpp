@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <random>
 
 #include "mrsns/core/error.h"
 #include "mrsns/core/frame_poses.h"
@@ -14,6 +15,7 @@
 #include "mrsns/ultrasound/probe_calibration.h"
 #include "mrsns/ultrasound/volume_reconstruction.h"
 #include "plus_reference.h"
+#include "reference_reconstruction.h"
 #include "test_data.h"
 
 namespace mrsns::ultrasound {
@@ -101,6 +103,56 @@ TEST(VolumeReconstruction, SweepThroughAKnownVolumeComesBack) {
   EXPECT_GT(reconstructor.figures().filled_fraction, 0.3);
 }
 
+// The parallel splat against the one-pixel-at-a-time oracle, and against
+// itself with other thread counts, on oblique frames of noise (every grey
+// level, frames crossing each other and the grid's edge).
+TEST(VolumeReconstruction, ParallelSplatMatchesTheStraightforwardOneAndIgnoresTheThreadCount) {
+  ImageVolume grid;
+  grid.size = {90, 80, 70};
+  grid.spacing = Eigen::Vector3d::Constant(0.5);
+  grid.origin = Eigen::Vector3d(-22, -20, -17);
+  std::mt19937 rng(5);
+  const int w = 300, h = 240;
+  std::vector<std::uint8_t> pixels(static_cast<std::size_t>(w) * h);
+  std::vector<std::vector<std::uint8_t>> frames;
+  std::vector<Eigen::Matrix4d> poses;
+  for (int f = 0; f < 12; ++f) {
+    for (auto& p : pixels) p = static_cast<std::uint8_t>(rng() & 0xFF);
+    frames.push_back(pixels);
+    Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
+    m.topLeftCorner<3, 3>() = so3Exp(Eigen::Vector3d(0.3 + 0.05 * f, -0.2, 0.1 * f)) * 0.15;  // 0.15 mm pixels
+    m.topRightCorner<3, 1>() = Eigen::Vector3d(-20 + 0.7 * f, -18, -15 + 0.4 * f);
+    poses.push_back(m);
+  }
+  test::ReferenceReconstructor oracle(grid);
+  VolumeReconstructor one(grid, 1), two(grid, 2), three(grid, 3);
+  for (std::size_t f = 0; f < frames.size(); ++f) {
+    const GrayImageView view{w, h, frames[f]};
+    const std::array<int, 4> clip = f % 3 == 0 ? std::array<int, 4>{10, 5, 250, 200} : std::array<int, 4>{};
+    oracle.addFrame(view, poses[f], clip);
+    for (auto* r : {&one, &two, &three}) r->addFrame(view, poses[f], clip);
+  }
+  const ImageVolume expected = oracle.result(1);
+  const ImageVolume a = one.result(1), b = two.result(1), c = three.result(1);
+  EXPECT_EQ(a.data, b.data);
+  EXPECT_EQ(a.data, c.data);
+  EXPECT_EQ(one.figures().pixels_inside, oracle.figures().pixels_inside);
+  EXPECT_EQ(one.figures().pixels_outside, oracle.figures().pixels_outside);
+  EXPECT_GT(one.figures().pixels_outside, 0u);
+  // Same contributions, added in another order: float round-off (~1e-7 of a
+  // sum) can move a voxel across a .5 boundary, nothing more.
+  std::size_t differing = 0;
+  int worst = 0;
+  for (std::size_t n = 0; n < a.voxelCount(); ++n) {
+    const int d = std::abs(static_cast<int>(a.data[n]) - static_cast<int>(expected.data[n]));
+    worst = std::max(worst, d);
+    differing += d != 0;
+  }
+  EXPECT_LE(worst, 1);
+  EXPECT_LT(static_cast<double>(differing), 1e-4 * static_cast<double>(a.voxelCount()));
+  EXPECT_NEAR(one.figures().filled_fraction, oracle.figures().filled_fraction, 1e-4);
+}
+
 TEST(VolumeReconstruction, SamplingAtVoxelCentresReturnsTheVoxels) {
   const ImageVolume v = smoothVolume();
   for (const auto& [i, j, k] : {std::array{0, 0, 0}, {59, 49, 39}, {17, 33, 5}}) {
@@ -180,6 +232,24 @@ TEST(VolumeReconstructionReal, FcalWiresAppearWhereThePhantomPutsThem) {
               wire_sum / static_cast<double>(wire_n), wire_n, all_sum / static_cast<double>(all_n));
   ASSERT_GT(wire_n, 50u);
   EXPECT_GT(wire_sum / static_cast<double>(wire_n), 2.0 * all_sum / static_cast<double>(all_n));
+
+  // The same sweep through the one-pixel-at-a-time oracle gives the same volume.
+  test::ReferenceReconstructor oracle(gridAroundCorners(corners, 0.5, 0.0));
+  for (std::size_t n = 0; n < poses.size(); n += 2) {
+    const auto& p = poses[n];
+    const auto pixels = toMfPixels(sequence, sequence.frames[p.frame_index]);
+    oracle.addFrame({w, h, pixels}, p.to_T_from.matrix() * probe_T_image);
+  }
+  const ImageVolume expected = oracle.result(1);
+  std::size_t differing = 0;
+  int worst = 0;
+  for (std::size_t n = 0; n < volume.voxelCount(); ++n) {
+    worst = std::max(worst, std::abs(static_cast<int>(volume.data[n]) - static_cast<int>(expected.data[n])));
+    differing += volume.data[n] != expected.data[n];
+  }
+  EXPECT_LE(worst, 1);
+  EXPECT_LT(static_cast<double>(differing), 1e-4 * static_cast<double>(volume.voxelCount()));
+  EXPECT_EQ(reconstructor.figures().pixels_inside, oracle.figures().pixels_inside);
 }
 
 }  // namespace

@@ -38,7 +38,9 @@ struct ReconstructionFigures {
 /// with the pixel spacing in its first two columns).
 class VolumeReconstructor {
  public:
-  explicit VolumeReconstructor(const ImageVolume& grid);
+  /// `threads` splat a frame and fill holes in parallel (0 = the hardware's);
+  /// the result does not depend on it.
+  explicit VolumeReconstructor(const ImageVolume& grid, unsigned threads = 0);
 
   /// `clip` (x, y, width, height in pixels) limits the frame to its image
   /// area (no text or bars); empty = whole frame. Throws InvalidArgumentError
@@ -52,8 +54,15 @@ class VolumeReconstructor {
   [[nodiscard]] const ReconstructionFigures& figures() const { return figures_; }
 
  private:
+  // Sum of weighted values and of weights side by side: a splat touches
+  // both, so they share a cache line.
+  struct Accumulated {
+    float sum = 0.0f;
+    float weight = 0.0f;
+  };
   ImageVolume grid_;
-  std::vector<float> sum_, weight_;
+  unsigned threads_ = 0;
+  std::vector<Accumulated> accumulator_;
   ReconstructionFigures figures_;
 };
 
