@@ -167,6 +167,53 @@ TEST(ShapeTracker, ExactContoursOfAModelShapePullThePosteriorToIt) {
   EXPECT_FALSE(none.updated);
 }
 
+// A frame evaluates only the vertices near the image plane; its cut must be
+// the cut of the whole evaluated posterior shape, point for point, whether
+// the plane crosses the vessels, grazes them or misses them.
+TEST(ShapeTracker, TheCutNearThePlaneIsTheCutOfTheWholePosteriorShape) {
+  std::mt19937_64 rng(21);
+  std::vector<TriangleMesh> training;
+  for (int i = 0; i < 12; ++i) training.push_back(makeVesselPhantom(randomVesselDeformation(rng)));
+  ShapeModelBuildOptions build;
+  build.align = false;
+  const ShapeModel model = buildShapeModel(training, build).model;
+  const TriangleMesh truth_mesh = shapeMesh(model, sampleShape(model, rng));
+  ShapeTrackerOptions opts;
+  opts.posterior.noise_sigma_mm = 0.1;
+  PosteriorShapeTracker tracker(model, opts);
+  auto plane = [](double z, double tilt) {
+    Eigen::Isometry3d m = Eigen::Isometry3d::Identity();
+    m.linear() = Eigen::AngleAxisd(tilt, Eigen::Vector3d::UnitX()).toRotationMatrix();
+    m.translation() = Eigen::Vector3d(-16.0, -12.0, z);
+    return m;
+  };
+  for (int f = 0; f < 12; ++f) {
+    const Eigen::Isometry3d m = plane(-25.0 + 4.0 * f, 0.2 * std::sin(f));
+    std::vector<Polyline3d> features;
+    for (const auto& c : intersectMeshWithPlane(truth_mesh, m.translation(), m.linear().col(2))) {
+      Polyline3d p;
+      p.closed = c.closed;
+      for (const auto& q : c.points) p.points.push_back(m.inverse() * q);
+      if (p.closed) features.push_back(p);
+    }
+    ASSERT_TRUE(tracker.update(m, features).updated);
+  }
+  ASSERT_GT(tracker.coefficients().norm(), 0.5);  // the shape has moved away from the mean
+  const TriangleMesh full = tracker.currentMesh();
+  for (const auto& m : {plane(-20.0, 0.0), plane(3.0, 0.7), plane(12.5, -0.3), plane(400.0, 0.0), plane(-8.0, 1.4)}) {
+    const auto predicted = tracker.predictedContours(m);
+    const auto expected = intersectMeshWithPlane(full, m.translation(), m.linear().col(2));
+    ASSERT_EQ(predicted.size(), expected.size());
+    for (std::size_t c = 0; c < expected.size(); ++c) {
+      if (expected[c].points.size() < 3) continue;
+      ASSERT_EQ(predicted[c].points.size(), expected[c].points.size());
+      for (std::size_t i = 0; i < expected[c].points.size(); ++i) {
+        EXPECT_LT((m * predicted[c].points[i] - expected[c].points[i]).norm(), 1e-9);
+      }
+    }
+  }
+}
+
 TEST(ShapeTracker, AFrameThatMakesThePosteriorImplausibleIsUndone) {
   std::mt19937_64 rng(8);
   std::vector<TriangleMesh> training;
@@ -205,6 +252,41 @@ TEST(ShapeTracker, AFrameThatMakesThePosteriorImplausibleIsUndone) {
   EXPECT_TRUE(undo.observations().empty());
   EXPECT_EQ(undo.currentShape(), model.mean);
   EXPECT_TRUE(undo.posterior().plausible);
+
+  // After a plausible frame, an implausible one is undone back to it: the
+  // observations and the posterior of the first frame, not the prior.
+  std::vector<Polyline3d> plausible;
+  for (const auto& c : features) {
+    Polyline3d p = c;
+    Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+    for (const auto& q : c.points) centre += q;
+    centre /= static_cast<double>(c.points.size());
+    for (auto& q : p.points) q = centre + (1.05 / 2.5) * (q - centre);  // 5 % wider than the mean
+    plausible.push_back(p);
+  }
+  // Then a lumen 1 mm wider all round: most of its points replace the first
+  // frame's (within 1.2 mm), and its posterior (|alpha| ~ 10) is implausible.
+  PosteriorShapeTracker twice(model, opts);
+  ASSERT_TRUE(twice.update(model_T_image, plausible).updated);
+  const auto observations_after_first = twice.observations();
+  const Eigen::VectorXd alpha_after_first = twice.coefficients();
+  std::vector<Polyline3d> wider;
+  for (const auto& c : plausible) {
+    Polyline3d p = c;
+    Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+    for (const auto& q : c.points) centre += q;
+    centre /= static_cast<double>(c.points.size());
+    for (auto& q : p.points) q += 1.0 * (q - centre).normalized();
+    wider.push_back(p);
+  }
+  const FrameUpdate second = twice.update(model_T_image, wider);
+  EXPECT_FALSE(second.updated);
+  EXPECT_GT(second.replaced, 0);  // the undone frame had replaced observations of the first
+  ASSERT_EQ(twice.observations().size(), observations_after_first.size());
+  for (std::size_t i = 0; i < observations_after_first.size(); ++i) {
+    EXPECT_EQ(twice.observations()[i].point, observations_after_first[i].point);
+  }
+  EXPECT_EQ(twice.coefficients(), alpha_after_first);
 }
 
 TEST(DeformationTrial, DefaultProtocolImprovesOnThePrior) {

@@ -129,6 +129,61 @@ TEST(Posterior, FlagsAndExcludesImplausibleObservations) {
   EXPECT_FALSE(computePosterior(model, obs, opts).plausible);
 }
 
+// The normal equations kept up to date by adds and replaces (the live
+// tracker's path) give the posterior of the one-shot computation over the
+// final observations, with outliers among them, after enough changes to
+// pass a rebuild.
+TEST(Posterior, IncrementalEquationsMatchTheOneShotPosteriorAfterAddsAndReplaces) {
+  std::mt19937_64 rng(9);
+  const int points = 60;
+  const ShapeModel model = testing::randomModel(points, spectrum(7), rng, 0.0);
+  const Eigen::VectorXd truth = sampleShape(model, rng);
+  std::normal_distribution<double> noise(0.0, 0.5);
+  std::uniform_int_distribution<int> vertex(0, points - 1);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  auto observe = [&]() {
+    ModelPointObservation o;
+    const int a = vertex(rng), b = vertex(rng);
+    const double t = unit(rng);
+    o.vertices = {a, b, -1, -1};
+    o.weights = Eigen::Vector4d(1.0 - t, t, 0.0, 0.0);
+    o.point = (1.0 - t) * truth.segment<3>(3 * a) + t * truth.segment<3>(3 * b) +
+              Eigen::Vector3d(noise(rng), noise(rng), noise(rng));
+    if (unit(rng) < 0.03) o.point += Eigen::Vector3d(15.0, -10.0, 5.0);  // an outlier now and then
+    return o;
+  };
+  PosteriorNormalEquations equations(model.modeCount(), 50);
+  std::vector<ModelPointObservation> obs;
+  std::uniform_real_distribution<double> coin(0.0, 1.0);
+  for (int change = 0; change < 400; ++change) {
+    if (obs.size() < 10 || coin(rng) < 0.4) {
+      obs.push_back(observe());
+      equations.add(model, obs.back());
+    } else {
+      const auto j = static_cast<std::size_t>(rng() % obs.size());
+      obs[j] = observe();
+      equations.replace(j, model, obs[j]);
+    }
+  }
+  ASSERT_EQ(equations.size(), obs.size());
+  PosteriorOptions options;
+  options.noise_sigma_mm = 0.5;
+  const PosteriorResult incremental = equations.solve(options);
+  const PosteriorResult direct = computePosterior(model, obs, options);
+  EXPECT_LT((incremental.coefficients - direct.coefficients).norm(), 1e-9 * (1.0 + direct.coefficients.norm()));
+  EXPECT_LT((incremental.coefficient_covariance - direct.coefficient_covariance).norm(), 1e-9);
+  EXPECT_EQ(incremental.excluded, direct.excluded);
+  EXPECT_FALSE(direct.excluded.empty());
+  EXPECT_NEAR(incremental.rms_residual_mm, direct.rms_residual_mm, 1e-9);
+  EXPECT_EQ(incremental.mean.size(), 0);  // the shape is evaluated only on request
+  EXPECT_LT((posteriorShape(model, incremental.coefficients) - direct.mean).norm(), 1e-8);
+
+  // Cleared, it is the prior again; a wrong index is refused.
+  equations.clear();
+  EXPECT_EQ(equations.solve(options).coefficients.norm(), 0.0);
+  EXPECT_THROW(equations.replace(0, model, obs.front()), InvalidArgumentError);
+}
+
 TEST(Posterior, RefusesInvalidInput) {
   std::mt19937_64 rng(5);
   const ShapeModel model = testing::randomModel(10, spectrum(3), rng);

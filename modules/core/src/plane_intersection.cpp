@@ -46,44 +46,50 @@ std::vector<std::int32_t> walk(std::int32_t start, const std::vector<Segment>& s
 
 }  // namespace
 
-std::vector<Polyline3d> intersectMeshWithPlane(const TriangleMesh& mesh, const Eigen::Vector3d& plane_point,
-                                               const Eigen::Vector3d& plane_normal, const PlaneCutOptions& options) {
-  validateMesh(mesh, mesh.name.empty() ? std::string("intersectMeshWithPlane mesh")
-                                       : "intersectMeshWithPlane mesh '" + mesh.name + "'");
-  if (!plane_point.allFinite() || !plane_normal.allFinite() || !(plane_normal.squaredNorm() > 0.0)) {
-    throw InvalidArgumentError(
-        "intersectMeshWithPlane: the plane point and normal must be finite and the normal non-zero");
-  }
-  const Eigen::Vector3d n = plane_normal.normalized();
-  const Eigen::VectorXd d = (mesh.vertices.rowwise() - plane_point.transpose()) * n;
+std::vector<PlaneCutContour> cutFacesWithPlane(
+    const Eigen::Matrix<std::int32_t, Eigen::Dynamic, 3, Eigen::RowMajor>& faces, std::span<const char> positive,
+    const PlaneCutVertexFn& vertex, const PlaneCutOptions& options) {
+  const auto nv = static_cast<std::int64_t>(positive.size());
   // A vertex on the plane counts as positive: each edge then either crosses
   // or not, with no third case, and the contour passes through that vertex.
-  auto positive = [&](std::int32_t v) { return d(v) >= 0.0; };
+  auto side = [&](std::int32_t v) {
+    if (v < 0 || v >= nv) {
+      throw InvalidArgumentError("cutFacesWithPlane: a face refers to vertex " + std::to_string(v) + " of " +
+                                 std::to_string(nv));
+    }
+    return positive[static_cast<std::size_t>(v)] != 0;
+  };
 
   std::unordered_map<std::int64_t, std::int32_t> node_of_edge;
   std::vector<Eigen::Vector3d> node_points;
-  const std::int64_t nv = mesh.vertexCount();
+  std::vector<PlaneCutEdgePoint> node_edges;
   auto nodeOnEdge = [&](std::int32_t a, std::int32_t b) {
     if (a > b) std::swap(a, b);  // canonical order: both faces compute the same point
     const std::int64_t key = static_cast<std::int64_t>(a) * nv + b;
     const auto [it, inserted] = node_of_edge.try_emplace(key, static_cast<std::int32_t>(node_points.size()));
     if (inserted) {
-      const double t = d(a) / (d(a) - d(b));
-      const Eigen::Vector3d va = mesh.vertices.row(a).transpose();
-      const Eigen::Vector3d vb = mesh.vertices.row(b).transpose();
+      Eigen::Vector3d va, vb;
+      double da = 0.0, db = 0.0;
+      vertex(a, va, da);
+      vertex(b, vb, db);
+      // The sides came from the caller; a distance that disagrees by round-off
+      // (a vertex on the plane) is clamped so the point stays on the edge.
+      const double t = da == db ? 0.0 : std::clamp(da / (da - db), 0.0, 1.0);
       node_points.push_back(va + t * (vb - va));
+      node_edges.push_back({a, b, t});
     }
     return it->second;
   };
 
   std::vector<Segment> segments;
-  for (Eigen::Index f = 0; f < mesh.faceCount(); ++f) {
+  for (Eigen::Index f = 0; f < faces.rows(); ++f) {
     Segment seg;
     for (int k = 0; k < 3; ++k) {
-      const std::int32_t a = mesh.faces(f, k);
-      const std::int32_t b = mesh.faces(f, (k + 1) % 3);
-      if (positive(a) && !positive(b)) seg.from = nodeOnEdge(a, b);
-      if (!positive(a) && positive(b)) seg.to = nodeOnEdge(a, b);
+      const std::int32_t a = faces(f, k);
+      const std::int32_t b = faces(f, (k + 1) % 3);
+      const bool pa = side(a), pb = side(b);
+      if (pa && !pb) seg.from = nodeOnEdge(a, b);
+      if (!pa && pb) seg.to = nodeOnEdge(a, b);
     }
     if (seg.from >= 0 && seg.to >= 0) segments.push_back(seg);
   }
@@ -95,26 +101,32 @@ std::vector<Polyline3d> intersectMeshWithPlane(const TriangleMesh& mesh, const E
   }
 
   std::vector<char> used(segments.size(), 0);
-  std::vector<Polyline3d> contours;
+  std::vector<PlaneCutContour> contours;
   auto emit = [&](std::int32_t start) {
     int votes = 0;
     std::vector<std::int32_t> nodes = walk(start, segments, incident, used, votes);
     if (nodes.size() < 2) return;
-    Polyline3d line;
+    PlaneCutContour c;
+    Polyline3d& line = c.polyline;
     line.closed = nodes.size() > 2 && nodes.back() == nodes.front();
     if (line.closed) nodes.pop_back();
     for (const std::int32_t node : nodes) {
       const Eigen::Vector3d& p = node_points[static_cast<std::size_t>(node)];
       if (!line.points.empty() && (p - line.points.back()).norm() <= options.merge_distance) continue;
       line.points.push_back(p);
+      c.edges.push_back(node_edges[static_cast<std::size_t>(node)]);
     }
     if (line.closed && line.points.size() > 1 &&
         (line.points.back() - line.points.front()).norm() <= options.merge_distance) {
       line.points.pop_back();
+      c.edges.pop_back();
     }
     if (line.points.size() < 2) return;  // the plane only touched the mesh at a point
-    if (votes < 0) std::reverse(line.points.begin(), line.points.end());
-    contours.push_back(std::move(line));
+    if (votes < 0) {
+      std::reverse(line.points.begin(), line.points.end());
+      std::reverse(c.edges.begin(), c.edges.end());
+    }
+    contours.push_back(std::move(c));
   };
   // Open chains first (they start at a node with one segment, on a mesh
   // boundary), so a loop walk never starts in the middle of a chain.
@@ -129,6 +141,34 @@ std::vector<Polyline3d> intersectMeshWithPlane(const TriangleMesh& mesh, const E
     if (!used[s]) emit(segments[s].from);
   }
   return contours;
+}
+
+std::vector<PlaneCutContour> cutMeshWithPlane(const TriangleMesh& mesh, const Eigen::Vector3d& plane_point,
+                                              const Eigen::Vector3d& plane_normal, const PlaneCutOptions& options) {
+  validateMesh(mesh, mesh.name.empty() ? std::string("intersectMeshWithPlane mesh")
+                                       : "intersectMeshWithPlane mesh '" + mesh.name + "'");
+  if (!plane_point.allFinite() || !plane_normal.allFinite() || !(plane_normal.squaredNorm() > 0.0)) {
+    throw InvalidArgumentError(
+        "intersectMeshWithPlane: the plane point and normal must be finite and the normal non-zero");
+  }
+  const Eigen::Vector3d n = plane_normal.normalized();
+  const Eigen::VectorXd d = (mesh.vertices.rowwise() - plane_point.transpose()) * n;
+  std::vector<char> positive(static_cast<std::size_t>(d.size()));
+  for (Eigen::Index v = 0; v < d.size(); ++v) positive[static_cast<std::size_t>(v)] = d(v) >= 0.0 ? 1 : 0;
+  return cutFacesWithPlane(
+      mesh.faces, positive,
+      [&](std::int32_t v, Eigen::Vector3d& position, double& distance) {
+        position = mesh.vertices.row(v).transpose();
+        distance = d(v);
+      },
+      options);
+}
+
+std::vector<Polyline3d> intersectMeshWithPlane(const TriangleMesh& mesh, const Eigen::Vector3d& plane_point,
+                                               const Eigen::Vector3d& plane_normal, const PlaneCutOptions& options) {
+  std::vector<Polyline3d> out;
+  for (auto& c : cutMeshWithPlane(mesh, plane_point, plane_normal, options)) out.push_back(std::move(c.polyline));
+  return out;
 }
 
 double polylineLength(const Polyline3d& polyline) {

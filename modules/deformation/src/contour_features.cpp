@@ -2,8 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <map>
-#include <tuple>
 
 #include "mrsns/core/error.h"
 
@@ -93,42 +91,16 @@ ModelPointObservation ModelContour::modelPoint(const ContourParameter& p) const 
 
 std::vector<ModelContour> cutModelWithPlane(const TriangleMesh& mesh, const Eigen::Vector3d& plane_point,
                                             const Eigen::Vector3d& plane_normal) {
-  const std::vector<Polyline3d> contours = intersectMeshWithPlane(mesh, plane_point, plane_normal);
   std::vector<ModelContour> out;
-  if (contours.empty()) return out;
-  // Recover each contour point's edge by recomputing the crossing points with
-  // the same arithmetic as intersectMeshWithPlane (bit-identical positions).
-  const Eigen::Vector3d n = plane_normal.normalized();
-  const Eigen::VectorXd d = (mesh.vertices.rowwise() - plane_point.transpose()) * n;
-  using Key = std::tuple<double, double, double>;
-  std::map<Key, std::pair<Eigen::Vector2i, double>> edge_of_point;
-  for (Eigen::Index f = 0; f < mesh.faceCount(); ++f) {
-    for (int k = 0; k < 3; ++k) {
-      std::int32_t a = mesh.faces(f, k);
-      std::int32_t b = mesh.faces(f, (k + 1) % 3);
-      if ((d(a) >= 0.0) == (d(b) >= 0.0)) continue;
-      if (a > b) std::swap(a, b);
-      const double t = d(a) / (d(a) - d(b));
-      const Eigen::Vector3d va = mesh.vertices.row(a).transpose();
-      const Eigen::Vector3d vb = mesh.vertices.row(b).transpose();
-      const Eigen::Vector3d p = va + t * (vb - va);
-      edge_of_point.emplace(Key{p.x(), p.y(), p.z()}, std::make_pair(Eigen::Vector2i(a, b), t));
-    }
-  }
-  for (const auto& c : contours) {
+  for (auto& c : cutMeshWithPlane(mesh, plane_point, plane_normal)) {
+    if (c.polyline.points.size() < 3) continue;
     ModelContour mc;
-    mc.contour = c;
-    bool complete = true;
-    for (const auto& p : c.points) {
-      const auto it = edge_of_point.find(Key{p.x(), p.y(), p.z()});
-      if (it == edge_of_point.end()) {
-        complete = false;
-        break;
-      }
-      mc.edge_vertices.push_back(it->second.first);
-      mc.edge_t.push_back(it->second.second);
+    mc.contour = std::move(c.polyline);
+    for (const auto& e : c.edges) {
+      mc.edge_vertices.emplace_back(e.a, e.b);
+      mc.edge_t.push_back(e.t);
     }
-    if (complete && c.points.size() >= 3) out.push_back(std::move(mc));
+    out.push_back(std::move(mc));
   }
   return out;
 }

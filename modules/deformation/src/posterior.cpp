@@ -1,7 +1,10 @@
 #include "mrsns/deformation/posterior.h"
 
 #include <Eigen/Cholesky>
+#include <algorithm>
 #include <cmath>
+#include <limits>
+#include <string>
 
 #include "mrsns/core/error.h"
 
@@ -49,54 +52,101 @@ void validateObservations(const ShapeModel& model, std::span<const ModelPointObs
 
 }  // namespace
 
-PosteriorResult computePosterior(const ShapeModel& model, std::span<const ModelPointObservation> observations,
-                                 const PosteriorOptions& options) {
+PosteriorNormalEquations::PosteriorNormalEquations(Eigen::Index modes, int rebuild_interval)
+    : rebuild_interval_(std::max(1, rebuild_interval)) {
+  if (modes < 1) throw InvalidArgumentError("PosteriorNormalEquations: the model has no modes");
+  qtq_ = Eigen::MatrixXd::Zero(modes, modes);
+  qtd_ = Eigen::VectorXd::Zero(modes);
+  rows_.resize(3 * 64, modes);
+  residuals_.resize(3 * 64);
+}
+
+void PosteriorNormalEquations::add(const ShapeModel& model, const ModelPointObservation& observation) {
+  validateObservations(model, std::span<const ModelPointObservation>(&observation, 1));
+  if (model.modeCount() != modes()) {
+    throw InvalidArgumentError("PosteriorNormalEquations: the model has " + std::to_string(model.modeCount()) +
+                               " modes, the equations " + std::to_string(modes()));
+  }
+  if (3 * (count_ + 1) > rows_.rows()) {
+    // Grow geometrically: amortised O(1) copies per observation.
+    rows_.conservativeResize(2 * rows_.rows(), Eigen::NoChange);
+    residuals_.conservativeResize(2 * residuals_.size());
+  }
+  auto rows = rows_.middleRows(3 * count_, 3);
+  rows.noalias() = observationRows(model, observation);
+  residuals_.segment<3>(3 * count_) = observation.point - observationMean(model, observation);
+  qtq_.noalias() += rows.transpose() * rows;
+  qtd_.noalias() += rows.transpose() * residuals_.segment<3>(3 * count_);
+  ++count_;
+  if (++changes_since_rebuild_ >= rebuild_interval_) rebuild();
+}
+
+void PosteriorNormalEquations::replace(std::size_t index, const ShapeModel& model,
+                                       const ModelPointObservation& observation) {
+  if (index >= size()) {
+    throw InvalidArgumentError("PosteriorNormalEquations::replace: observation " + std::to_string(index) + " of " +
+                               std::to_string(size()));
+  }
+  validateObservations(model, std::span<const ModelPointObservation>(&observation, 1));
+  const auto i = static_cast<Eigen::Index>(index);
+  auto rows = rows_.middleRows(3 * i, 3);
+  qtq_.noalias() -= rows.transpose() * rows;
+  qtd_.noalias() -= rows.transpose() * residuals_.segment<3>(3 * i);
+  rows.noalias() = observationRows(model, observation);
+  residuals_.segment<3>(3 * i) = observation.point - observationMean(model, observation);
+  qtq_.noalias() += rows.transpose() * rows;
+  qtd_.noalias() += rows.transpose() * residuals_.segment<3>(3 * i);
+  if (++changes_since_rebuild_ >= rebuild_interval_) rebuild();
+}
+
+void PosteriorNormalEquations::clear() {
+  count_ = 0;
+  qtq_.setZero();
+  qtd_.setZero();
+  changes_since_rebuild_ = 0;
+}
+
+void PosteriorNormalEquations::rebuild() {
+  const auto rows = rows_.topRows(3 * count_);
+  qtq_.noalias() = rows.transpose() * rows;
+  qtd_.noalias() = rows.transpose() * residuals_.head(3 * count_);
+  changes_since_rebuild_ = 0;
+}
+
+PosteriorResult PosteriorNormalEquations::solve(const PosteriorOptions& options) const {
   if (!(options.noise_sigma_mm > 0.0) || !std::isfinite(options.noise_sigma_mm)) {
     throw InvalidArgumentError("computePosterior: noise_sigma_mm must be positive and finite, got " +
                                std::to_string(options.noise_sigma_mm));
   }
-  validateObservations(model, observations);
-  const Eigen::Index n = model.modeCount();
-  const Eigen::Index k = static_cast<Eigen::Index>(observations.size());
+  const Eigen::Index n = modes();
+  const Eigen::Index k = count_;
   const double sigma2 = options.noise_sigma_mm * options.noise_sigma_mm;
-
-  // Stacked Qp (3k x n) and residual to the prior mean, built once.
-  Eigen::MatrixXd qp(3 * k, n);
-  Eigen::VectorXd dp(3 * k);
-  for (Eigen::Index i = 0; i < k; ++i) {
-    const auto& o = observations[static_cast<std::size_t>(i)];
-    qp.middleRows(3 * i, 3) = observationRows(model, o);
-    dp.segment<3>(3 * i) = o.point - observationMean(model, o);
-  }
+  const auto qp = rows_.topRows(3 * k);
+  const auto dp = residuals_.head(3 * k);
 
   PosteriorResult r;
   std::vector<char> used(static_cast<std::size_t>(k), 1);
-  Eigen::MatrixXd m_inv;
+  Eigen::MatrixXd m = qtq_;
+  Eigen::VectorXd rhs = qtd_;
   for (int round = 0;; ++round) {
     // M = Qp^T Qp + sigma^2 I over the used observations (n x n, Eq. 10).
-    Eigen::MatrixXd m = sigma2 * Eigen::MatrixXd::Identity(n, n);
-    Eigen::VectorXd rhs = Eigen::VectorXd::Zero(n);
-    for (Eigen::Index i = 0; i < k; ++i) {
-      if (!used[static_cast<std::size_t>(i)]) continue;
-      const auto rows = qp.middleRows(3 * i, 3);
-      m.noalias() += rows.transpose() * rows;
-      rhs.noalias() += rows.transpose() * dp.segment<3>(3 * i);
-    }
+    m.diagonal().array() += sigma2;
     const Eigen::LLT<Eigen::MatrixXd> llt(m);
     if (llt.info() != Eigen::Success)
       throw ComputationError("computePosterior: the n x n system is not positive definite");
     r.coefficients = llt.solve(rhs);
-    m_inv = llt.solve(Eigen::MatrixXd::Identity(n, n));
-    r.coefficient_covariance = sigma2 * m_inv;
+    r.coefficient_covariance = sigma2 * llt.solve(Eigen::MatrixXd::Identity(n, n));
 
-    // Residuals against the posterior predictive N(Qp_i alpha, Qp_i S Qp_i^T + sigma^2 I).
+    // Residuals against the posterior predictive N(Qp_i alpha, Qp_i S Qp_i^T + sigma^2 I),
+    // with Qp_i S Qp_i^T = sigma^2 X_i^T X_i, X = L^-1 Qp^T (one triangular solve for all).
+    const Eigen::VectorXd e_all = dp - qp * r.coefficients;
+    const Eigen::MatrixXd x = llt.matrixL().solve(qp.transpose());
     r.residuals_mm.resize(k);
     r.residual_mahalanobis.resize(k);
-    int newly_excluded = 0;
     for (Eigen::Index i = 0; i < k; ++i) {
-      const auto rows = qp.middleRows(3 * i, 3);
-      const Eigen::Vector3d e = dp.segment<3>(3 * i) - rows * r.coefficients;
-      Eigen::Matrix3d c = rows * r.coefficient_covariance * rows.transpose();
+      const Eigen::Vector3d e = e_all.segment<3>(3 * i);
+      const auto xi = x.middleCols(3 * i, 3);
+      Eigen::Matrix3d c = sigma2 * (xi.transpose() * xi);
       // A used observation pulls the posterior towards itself, so it is judged
       // by its leave-one-out residual, which for this Gaussian model reduces to
       // d^2 = e^T (sigma^2 I - C)^-1 e with C the posterior covariance at it.
@@ -119,14 +169,19 @@ PosteriorResult computePosterior(const ShapeModel& model, std::span<const ModelP
         worst = i;
       }
     }
-    if (worst >= 0) {
-      used[static_cast<std::size_t>(worst)] = 0;
-      ++newly_excluded;
+    if (worst < 0) break;
+    used[static_cast<std::size_t>(worst)] = 0;
+    // The system over the used observations, summed afresh (exclusions are rare).
+    m.setZero();
+    rhs.setZero();
+    for (Eigen::Index i = 0; i < k; ++i) {
+      if (!used[static_cast<std::size_t>(i)]) continue;
+      const auto rows = qp.middleRows(3 * i, 3);
+      m.noalias() += rows.transpose() * rows;
+      rhs.noalias() += rows.transpose() * dp.segment<3>(3 * i);
     }
-    if (newly_excluded == 0) break;
   }
 
-  r.mean = model.mean + model.basis * (model.variances.cwiseSqrt().asDiagonal() * r.coefficients);
   r.mahalanobis = r.coefficients.norm();
   const double nn = static_cast<double>(n);
   r.plausible = r.mahalanobis * r.mahalanobis <= nn + options.implausible_sigmas * std::sqrt(2.0 * nn);
@@ -140,6 +195,29 @@ PosteriorResult computePosterior(const ShapeModel& model, std::span<const ModelP
     }
   }
   r.rms_residual_mm = r.used_observations > 0 ? std::sqrt(sq / r.used_observations) : 0.0;
+  return r;
+}
+
+Eigen::VectorXd posteriorShape(const ShapeModel& model, const Eigen::VectorXd& alpha) {
+  if (alpha.size() != model.modeCount()) {
+    throw InvalidArgumentError("posteriorShape: " + std::to_string(alpha.size()) + " coefficients for a model of " +
+                               std::to_string(model.modeCount()) + " modes");
+  }
+  return model.mean + model.basis * (model.variances.cwiseSqrt().asDiagonal() * alpha);
+}
+
+PosteriorResult computePosterior(const ShapeModel& model, std::span<const ModelPointObservation> observations,
+                                 const PosteriorOptions& options) {
+  if (!(options.noise_sigma_mm > 0.0) || !std::isfinite(options.noise_sigma_mm)) {
+    throw InvalidArgumentError("computePosterior: noise_sigma_mm must be positive and finite, got " +
+                               std::to_string(options.noise_sigma_mm));
+  }
+  validateObservations(model, observations);
+  if (model.modeCount() < 1) throw InvalidArgumentError("computePosterior: the model has no modes");
+  PosteriorNormalEquations equations(model.modeCount(), std::numeric_limits<int>::max());
+  for (const auto& o : observations) equations.add(model, o);
+  PosteriorResult r = equations.solve(options);
+  r.mean = posteriorShape(model, r.coefficients);
   if (options.compute_vertex_covariances) {
     r.vertex_covariances.resize(static_cast<std::size_t>(model.pointCount()));
     for (Eigen::Index v = 0; v < model.pointCount(); ++v) {

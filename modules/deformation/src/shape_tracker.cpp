@@ -11,34 +11,107 @@
 namespace mrsns::deformation {
 
 PosteriorShapeTracker::PosteriorShapeTracker(ShapeModel model, const ShapeTrackerOptions& options)
-    : model_(std::move(model)), options_(options) {
+    : model_(std::move(model)), options_(options), equations_(std::max<Eigen::Index>(model_.modeCount(), 1)) {
   validateShapeModel(model_, "PosteriorShapeTracker model");
   if (options_.contour_points < 3) throw InvalidArgumentError("PosteriorShapeTracker: contour_points must be >= 3");
   if (!(options_.update_threshold_mm >= 0.0)) {
     throw InvalidArgumentError("PosteriorShapeTracker: update_threshold_mm must be >= 0");
   }
+  q_rows_ = model_.basis * model_.variances.cwiseSqrt().asDiagonal();
+  vertex_bound_.resize(model_.pointCount());
+  for (Eigen::Index v = 0; v < model_.pointCount(); ++v) vertex_bound_(v) = q_rows_.middleRows(3 * v, 3).norm();
+  zero_coefficients_ = Eigen::VectorXd::Zero(model_.modeCount());
   reset();
 }
 
 void PosteriorShapeTracker::reset() {
   observations_.clear();
-  posterior_ = computePosterior(model_, {}, options_.posterior);
-  shape_ = model_.mean;
-  current_ = shapeMesh(model_, shape_);
+  equations_.clear();
+  posterior_ = equations_.solve(options_.posterior);
+  shape_valid_ = false;
+}
+
+const Eigen::VectorXd& PosteriorShapeTracker::currentShape() const {
+  if (!shape_valid_) {
+    shape_ = model_.mean;
+    shape_.noalias() += q_rows_ * posterior_.coefficients;
+    shape_valid_ = true;
+  }
+  return shape_;
+}
+
+const PosteriorResult& PosteriorShapeTracker::posterior() const {
+  if (posterior_.mean.size() != model_.mean.size()) posterior_.mean = currentShape();
+  return posterior_;
 }
 
 TriangleMesh PosteriorShapeTracker::currentMesh() const {
-  return current_;
+  return shapeMesh(model_, currentShape());
+}
+
+const Eigen::VectorXd& PosteriorShapeTracker::cutCoefficients() const {
+  return options_.cut_posterior ? posterior_.coefficients : zero_coefficients_;
+}
+
+std::vector<ModelContour> PosteriorShapeTracker::cutShape(const Eigen::VectorXd& alpha,
+                                                          const Eigen::Vector3d& plane_point,
+                                                          const Eigen::Vector3d& plane_normal) const {
+  if (!plane_point.allFinite() || !plane_normal.allFinite() || !(plane_normal.squaredNorm() > 0.0)) {
+    throw InvalidArgumentError("the image plane's point and normal must be finite and the normal non-zero");
+  }
+  const Eigen::Vector3d n = plane_normal.normalized();
+  const Eigen::Index count = model_.pointCount();
+  const double reach = alpha.norm();
+  // Which side each vertex is on, from the prior mean and |Q_v alpha| <= |Q_v|_F |alpha|;
+  // the few vertices the bound leaves open are evaluated exactly.
+  std::vector<char> positive(static_cast<std::size_t>(count));
+  std::vector<Eigen::Index> evaluated;
+  std::vector<Eigen::Vector3d> position;
+  std::vector<double> distance;
+  std::vector<std::int32_t> slot(static_cast<std::size_t>(count), -1);
+  auto evaluate = [&](Eigen::Index v) {
+    Eigen::Vector3d x = model_.mean.segment<3>(3 * v);
+    x.noalias() += q_rows_.middleRows(3 * v, 3) * alpha;
+    slot[static_cast<std::size_t>(v)] = static_cast<std::int32_t>(position.size());
+    position.push_back(x);
+    distance.push_back((x - plane_point).dot(n));
+    return distance.back();
+  };
+  for (Eigen::Index v = 0; v < count; ++v) {
+    const double d_mean = (model_.mean.segment<3>(3 * v) - plane_point).dot(n);
+    // A margin of round-off on top of the bound: a vertex within it is evaluated.
+    const double bound = vertex_bound_(v) * reach * (1.0 + 1e-12) + 1e-9;
+    const double d = std::abs(d_mean) > bound ? d_mean : evaluate(v);
+    positive[static_cast<std::size_t>(v)] = d >= 0.0 ? 1 : 0;
+  }
+  const auto cut = cutFacesWithPlane(
+      model_.reference.faces, positive, [&](std::int32_t v, Eigen::Vector3d& x, double& d) {
+        if (slot[static_cast<std::size_t>(v)] < 0) evaluate(v);
+        const auto s = static_cast<std::size_t>(slot[static_cast<std::size_t>(v)]);
+        x = position[s];
+        d = distance[s];
+      });
+  std::vector<ModelContour> out;
+  for (const auto& c : cut) {
+    if (c.polyline.points.size() < 3) continue;
+    ModelContour mc;
+    mc.contour = c.polyline;
+    for (const auto& e : c.edges) {
+      mc.edge_vertices.emplace_back(e.a, e.b);
+      mc.edge_t.push_back(e.t);
+    }
+    out.push_back(std::move(mc));
+  }
+  return out;
 }
 
 std::vector<Polyline3d> PosteriorShapeTracker::predictedContours(const Eigen::Isometry3d& model_T_image) const {
   const Eigen::Isometry3d image_T_model = model_T_image.inverse();
   std::vector<Polyline3d> out;
-  for (const auto& c : intersectMeshWithPlane(options_.cut_posterior ? current_ : shapeMesh(model_, model_.mean),
-                                              model_T_image.translation(), model_T_image.linear().col(2))) {
+  for (const auto& c : cutShape(cutCoefficients(), model_T_image.translation(), model_T_image.linear().col(2))) {
     Polyline3d p;
-    p.closed = c.closed;
-    for (const auto& q : c.points) p.points.push_back(image_T_model * q);
+    p.closed = c.contour.closed;
+    for (const auto& q : c.contour.points) p.points.push_back(image_T_model * q);
     out.push_back(std::move(p));
   }
   return out;
@@ -124,13 +197,9 @@ FrameUpdate PosteriorShapeTracker::update(const Eigen::Isometry3d& model_T_image
     r.status = "no feature contour";
     return r;
   }
-  const TriangleMesh& cut_mesh = current_;
-  const Eigen::Vector3d normal = model_T_image.linear().col(2);
   std::vector<ModelContour> model_contours;
   try {
-    model_contours = options_.cut_posterior
-                         ? cutModelWithPlane(cut_mesh, model_T_image.translation(), normal)
-                         : cutModelWithPlane(shapeMesh(model_, model_.mean), model_T_image.translation(), normal);
+    model_contours = cutShape(cutCoefficients(), model_T_image.translation(), model_T_image.linear().col(2));
   } catch (const Error& e) {
     r.status = std::string("plane cut failed: ") + e.what();
     return r;
@@ -141,7 +210,9 @@ FrameUpdate PosteriorShapeTracker::update(const Eigen::Isometry3d& model_T_image
     return r;
   }
   const int k = options_.contour_points;
-  const std::vector<ModelPointObservation> before = observations_;
+  // Kept to undo the frame (reject_implausible_frames).
+  const std::size_t count_before = observations_.size();
+  std::vector<std::pair<std::size_t, ModelPointObservation>> replaced_before;
   std::vector<char> model_used(model_contours.size(), 0);
   for (const Polyline3d& fc_image : feature_contours) {
     if (fc_image.points.size() < 3) continue;
@@ -192,10 +263,14 @@ FrameUpdate PosteriorShapeTracker::update(const Eigen::Isometry3d& model_T_image
         }
       }
       if (nearest >= 0) {
-        observations_[static_cast<std::size_t>(nearest)] = o;
+        const auto j = static_cast<std::size_t>(nearest);
+        if (j < count_before) replaced_before.emplace_back(j, observations_[j]);
+        observations_[j] = o;
+        equations_.replace(j, model_, o);
         ++r.replaced;
       } else {
         observations_.push_back(o);
+        equations_.add(model_, o);
         ++r.added;
       }
     }
@@ -206,23 +281,27 @@ FrameUpdate PosteriorShapeTracker::update(const Eigen::Isometry3d& model_T_image
     r.elapsed_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     return r;
   }
-  // Step (e): the posterior.
+  // Step (e): the posterior (its coefficients; the shape is evaluated where needed).
+  PosteriorResult candidate;
   try {
-    posterior_ = computePosterior(model_, observations_, options_.posterior);
+    candidate = equations_.solve(options_.posterior);
   } catch (const Error& e) {
     r.status = std::string("posterior failed: ") + e.what();
     return r;
   }
-  if (options_.reject_implausible_frames && !posterior_.plausible) {
-    observations_ = before;
-    posterior_ = computePosterior(model_, observations_, options_.posterior);
+  if (options_.reject_implausible_frames && !candidate.plausible) {
+    // Undo in reverse order, so an observation replaced twice gets its first value back.
+    for (auto it = replaced_before.rbegin(); it != replaced_before.rend(); ++it) observations_[it->first] = it->second;
+    observations_.resize(count_before);
+    equations_.clear();
+    for (const auto& o : observations_) equations_.add(model_, o);
     r.observations = static_cast<int>(observations_.size());
     r.status = "frame undone: it made the posterior implausible";
     r.elapsed_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     return r;
   }
-  shape_ = posterior_.mean;
-  for (Eigen::Index v = 0; v < current_.vertexCount(); ++v) current_.vertices.row(v) = shape_.segment<3>(3 * v);
+  posterior_ = std::move(candidate);
+  shape_valid_ = false;
   r.updated = true;
   r.status = "ok";
   r.excluded = static_cast<int>(posterior_.excluded.size());

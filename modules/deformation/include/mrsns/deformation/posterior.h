@@ -70,6 +70,45 @@ struct PosteriorResult {
   double rms_residual_mm = 0.0;  ///< Over the used observations.
 };
 
+/// The normal equations of Eq. 10 kept up to date while observations are
+/// added and replaced one at a time (V^p of Algorithm 1), so a frame costs
+/// O(changed observations x n^2) to update and O(k n^2) to solve, never
+/// O(N n): Qp^T Qp and Qp^T (x_p - mu_p) are adjusted by each change, and
+/// every `rebuild_interval` changes recomputed from the kept rows so
+/// round-off cannot accumulate.
+class PosteriorNormalEquations {
+ public:
+  explicit PosteriorNormalEquations(Eigen::Index modes, int rebuild_interval = 1024);
+
+  /// Appends an observation (rows and prior mean taken from `model`).
+  void add(const ShapeModel& model, const ModelPointObservation& observation);
+  /// Replaces observation `index` (0 <= index < size()).
+  void replace(std::size_t index, const ShapeModel& model, const ModelPointObservation& observation);
+  void clear();
+  [[nodiscard]] std::size_t size() const { return static_cast<std::size_t>(count_); }
+  [[nodiscard]] Eigen::Index modes() const { return qtq_.rows(); }
+
+  /// The posterior of computePosterior (outlier rounds included) except the
+  /// mean shape, left empty: evaluate only the vertices needed with
+  /// posteriorShape / the coefficients. Throws ComputationError when the
+  /// system is not positive definite, InvalidArgumentError for a bad sigma.
+  [[nodiscard]] PosteriorResult solve(const PosteriorOptions& options) const;
+
+ private:
+  void rebuild();
+
+  Eigen::Index count_ = 0;
+  Eigen::MatrixXd rows_;         // 3 x n block per observation, stacked (3 * capacity x n)
+  Eigen::VectorXd residuals_;    // observed point - prior mean at it, stacked
+  Eigen::MatrixXd qtq_;          // sum of rows^T rows
+  Eigen::VectorXd qtd_;          // sum of rows^T residual
+  int changes_since_rebuild_ = 0;
+  int rebuild_interval_ = 1024;
+};
+
+/// The shape of `model` at coefficients `alpha`: mean + Q alpha (3N).
+[[nodiscard]] Eigen::VectorXd posteriorShape(const ShapeModel& model, const Eigen::VectorXd& alpha);
+
 /// The posterior of `model` given `observations`. With none it is the prior
 /// (mean, identity coefficient covariance). Throws InvalidArgumentError for a
 /// non-positive sigma, vertex indices out of range or non-finite points.

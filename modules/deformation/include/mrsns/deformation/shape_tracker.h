@@ -92,9 +92,14 @@ class PosteriorShapeTracker {
   void reset();
 
   [[nodiscard]] const ShapeModel& model() const { return model_; }
-  [[nodiscard]] const Eigen::VectorXd& currentShape() const { return shape_; }
+  /// The posterior mean shape (3N). A frame does not evaluate it (only the
+  /// vertices near the image plane): it is computed here on first use.
+  [[nodiscard]] const Eigen::VectorXd& currentShape() const;
   [[nodiscard]] TriangleMesh currentMesh() const;
-  [[nodiscard]] const PosteriorResult& posterior() const { return posterior_; }
+  /// The posterior, its mean shape included (evaluated on first use).
+  [[nodiscard]] const PosteriorResult& posterior() const;
+  /// The posterior mean coefficients alpha (cheap: no shape evaluation).
+  [[nodiscard]] const Eigen::VectorXd& coefficients() const { return posterior_.coefficients; }
   /// V^p with V^model: each observation's model point and the observed point.
   [[nodiscard]] const std::vector<ModelPointObservation>& observations() const { return observations_; }
 
@@ -104,12 +109,26 @@ class PosteriorShapeTracker {
   [[nodiscard]] double contourMahalanobisRms(const ModelContour& mc, const std::vector<ContourParameter>& params,
                                              const std::vector<Eigen::Vector3d>& feature_points) const;
 
+  // The contours of the shape at coefficients `alpha` cut by the plane, each
+  // point tied to its edge. Vertices whose side of the plane the prior mean
+  // and a bound decide (|n.(mu_v - p)| > |Q_v| |alpha|) are not evaluated;
+  // only those near the plane are (O(band) instead of O(N n)).
+  [[nodiscard]] std::vector<ModelContour> cutShape(const Eigen::VectorXd& alpha, const Eigen::Vector3d& plane_point,
+                                                   const Eigen::Vector3d& plane_normal) const;
+  [[nodiscard]] const Eigen::VectorXd& cutCoefficients() const;
+
   ShapeModel model_;
   ShapeTrackerOptions options_;
-  TriangleMesh current_;  // topology of the model, vertices of shape_
-  Eigen::VectorXd shape_;
-  PosteriorResult posterior_;
+  // Q = U diag(sqrt(lambda)) row-major (a vertex's 3 x n block is contiguous),
+  // and the Frobenius norm of each vertex's block (bounds |Q_v alpha|).
+  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> q_rows_;
+  Eigen::VectorXd vertex_bound_;
+  Eigen::VectorXd zero_coefficients_;
+  PosteriorNormalEquations equations_;
+  mutable PosteriorResult posterior_;  // mean filled on first use after a change
   std::vector<ModelPointObservation> observations_;
+  mutable Eigen::VectorXd shape_;  // posterior mean shape, valid when shape_valid_
+  mutable bool shape_valid_ = false;
 };
 
 /// The cyclic shift and direction of `b` (same size as `a`) that minimise the
