@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <string>
 #include <utility>
 
@@ -47,6 +48,32 @@ double boxDistanceSquared(const Eigen::Vector3d& p, const Eigen::Vector3d& lo, c
   return d.squaredNorm();
 }
 
+// Squared distance from p to the box `which` (0, 1) of a node's child boxes,
+// in double from the float bounds (which enclose the true ones), so it never
+// exceeds the distance to the true box: pruning with it stays exact.
+[[gnu::always_inline]] inline double childBoxDistanceSquared(const double p[3], const float lo[3], const float hi[3]) {
+  double s = 0.0;
+  for (int k = 0; k < 3; ++k) {
+    const double below = static_cast<double>(lo[k]) - p[k];
+    const double above = p[k] - static_cast<double>(hi[k]);
+    const double d = below > above ? below : above;
+    s += d > 0.0 ? d * d : 0.0;
+  }
+  return s;
+}
+
+float floatBelow(double x) {
+  float f = static_cast<float>(x);
+  if (static_cast<double>(f) > x) f = std::nextafter(f, -std::numeric_limits<float>::infinity());
+  return f;
+}
+
+float floatAbove(double x) {
+  float f = static_cast<float>(x);
+  if (static_cast<double>(f) < x) f = std::nextafter(f, std::numeric_limits<float>::infinity());
+  return f;
+}
+
 // Slab test of the line o + t d, t in [t0, t1], against a box.
 bool lineHitsBox(const Eigen::Vector3d& o, const Eigen::Vector3d& d, const Eigen::Vector3d& inv_d, double t0, double t1,
                  const Eigen::Vector3d& lo, const Eigen::Vector3d& hi) {
@@ -71,10 +98,13 @@ double angleBetween(const Eigen::Vector3d& u, const Eigen::Vector3d& v) {
 
 }  // namespace
 
-Eigen::Vector3d closestPointOnTriangle(const Eigen::Vector3d& p, const Eigen::Vector3d& a, const Eigen::Vector3d& b,
-                                       const Eigen::Vector3d& c, Eigen::Vector3d* barycentric) {
-  Eigen::Vector3d bary_storage;
-  Eigen::Vector3d& bary = barycentric != nullptr ? *barycentric : bary_storage;
+namespace {
+
+// Ericson's routine, inlined into the BVH search (a call per face costs as
+// much as the arithmetic).
+[[gnu::always_inline]] inline Eigen::Vector3d closestOnTriangle(const Eigen::Vector3d& p, const Eigen::Vector3d& a,
+                                                               const Eigen::Vector3d& b, const Eigen::Vector3d& c,
+                                                               Eigen::Vector3d& bary) {
   const Eigen::Vector3d ab = b - a;
   const Eigen::Vector3d ac = c - a;
   const Eigen::Vector3d ap = p - a;
@@ -124,6 +154,14 @@ Eigen::Vector3d closestPointOnTriangle(const Eigen::Vector3d& p, const Eigen::Ve
   return a + v * ab + w * ac;
 }
 
+}  // namespace
+
+Eigen::Vector3d closestPointOnTriangle(const Eigen::Vector3d& p, const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                                       const Eigen::Vector3d& c, Eigen::Vector3d* barycentric) {
+  Eigen::Vector3d bary_storage;
+  return closestOnTriangle(p, a, b, c, barycentric != nullptr ? *barycentric : bary_storage);
+}
+
 MeshLocator::MeshLocator(const TriangleMesh& mesh, const MeshLocatorOptions& options)
     : vertices_(mesh.vertices), faces_(mesh.faces) {
   const std::string what = mesh.name.empty() ? std::string("MeshLocator mesh") : "MeshLocator mesh '" + mesh.name + "'";
@@ -135,11 +173,20 @@ MeshLocator::MeshLocator(const TriangleMesh& mesh, const MeshLocatorOptions& opt
     throw InvalidArgumentError("MeshLocatorOptions::max_leaf_faces must be >= 1 (got " +
                                std::to_string(options.max_leaf_faces) + ")");
   }
-  closed_ = isClosed(mesh);
   face_normals_ = faceNormals(mesh);
   scale_ = std::max(boundingBox(mesh).diagonal().norm(), 1e-300);
   build(options);
-  computePseudoNormals();
+}
+
+const MeshLocator::Topology& MeshLocator::topology() const {
+  std::call_once(topology_->once, [this] {
+    TriangleMesh mesh;
+    mesh.vertices = vertices_;
+    mesh.faces = faces_;
+    topology_->closed = isClosed(mesh);
+    computePseudoNormals(*topology_);
+  });
+  return *topology_;
 }
 
 void MeshLocator::build(const MeshLocatorOptions& options) {
@@ -224,18 +271,42 @@ void MeshLocator::build(const MeshLocatorOptions& options) {
       node.hi = l.hi.cwiseMax(r.hi);
     }
   }
+  // The closest-point search walks a compact copy of the inner nodes: each
+  // 64-byte record (one cache line) holds both children's boxes, in float
+  // rounded outwards, and where they are, so a step down the tree touches
+  // one line instead of two 64-byte nodes. The search is memory-bound.
+  std::vector<std::int32_t> compact_index(nodes_.size(), -1);
+  std::int32_t inner = 0;
+  for (std::size_t n = 0; n < nodes_.size(); ++n) {
+    if (nodes_[n].count == 0) compact_index[n] = inner++;
+  }
+  search_nodes_.assign(static_cast<std::size_t>(inner), SearchNode{});
+  for (std::size_t n = 0; n < nodes_.size(); ++n) {
+    const Node& node = nodes_[n];
+    if (node.count > 0) continue;
+    SearchNode& out = search_nodes_[static_cast<std::size_t>(compact_index[n])];
+    for (int c = 0; c < 2; ++c) {
+      const Node& child = nodes_[static_cast<std::size_t>(c == 0 ? node.left : node.right)];
+      for (int k = 0; k < 3; ++k) {
+        out.lo[c][k] = floatBelow(child.lo[k]);
+        out.hi[c][k] = floatAbove(child.hi[k]);
+      }
+      out.first[c] = child.count > 0 ? child.first : compact_index[static_cast<std::size_t>(c == 0 ? node.left : node.right)];
+      out.count[c] = child.count;
+    }
+  }
 }
 
-void MeshLocator::computePseudoNormals() {
+void MeshLocator::computePseudoNormals(Topology& t) const {
   const Eigen::Index m = faces_.rows();
-  vertex_pseudo_normals_ = PointsN3::Zero(vertices_.rows(), 3);
+  t.vertex_pseudo_normals = PointsN3::Zero(vertices_.rows(), 3);
   for (Eigen::Index f = 0; f < m; ++f) {
     const Eigen::RowVector3d n = face_normals_.row(f);
     for (int k = 0; k < 3; ++k) {
       const Eigen::Vector3d p = vertices_.row(faces_(f, k)).transpose();
       const Eigen::Vector3d u = vertices_.row(faces_(f, (k + 1) % 3)).transpose() - p;
       const Eigen::Vector3d v = vertices_.row(faces_(f, (k + 2) % 3)).transpose() - p;
-      vertex_pseudo_normals_.row(faces_(f, k)) += angleBetween(u, v) * n;
+      t.vertex_pseudo_normals.row(faces_(f, k)) += angleBetween(u, v) * n;
     }
   }
   // Edge pseudo-normal: the sum of the normals of the faces sharing the edge,
@@ -250,7 +321,7 @@ void MeshLocator::computePseudoNormals() {
   std::vector<std::size_t> fill(start.begin(), start.end() - 1);
   std::vector<std::size_t> by_head(slots);
   for (std::size_t slot = 0; slot < slots; ++slot) by_head[fill[head(slot)]++] = slot;
-  edge_pseudo_normals_.assign(slots, Eigen::Vector3d::Zero());
+  t.edge_pseudo_normals.assign(slots, Eigen::Vector3d::Zero());
   for (std::size_t slot = 0; slot < slots; ++slot) {
     const std::size_t a = head(slot);
     const std::size_t b = tail(slot);
@@ -261,14 +332,14 @@ void MeshLocator::computePseudoNormals() {
     for (std::size_t i = start[b]; i < start[b + 1]; ++i) {
       if (tail(by_head[i]) == a) sum += face_normals_.row(static_cast<Eigen::Index>(by_head[i] / 3)).transpose();
     }
-    edge_pseudo_normals_[slot] = sum;
+    t.edge_pseudo_normals[slot] = sum;
   }
 }
 
-void MeshLocator::testFace(const Eigen::Vector3d& query, Eigen::Index slot, SurfacePoint& best) const {
+inline void MeshLocator::testFace(const Eigen::Vector3d& query, Eigen::Index slot, SurfacePoint& best) const {
   const auto& tri = triangles_[static_cast<std::size_t>(slot)];
   Eigen::Vector3d bary;
-  const Eigen::Vector3d p = closestPointOnTriangle(query, tri[0], tri[1], tri[2], &bary);
+  const Eigen::Vector3d p = closestOnTriangle(query, tri[0], tri[1], tri[2], bary);
   const double d2 = (p - query).squaredNorm();
   // best.distance holds the squared distance during the search.
   if (d2 < best.distance) {
@@ -294,31 +365,57 @@ SurfacePoint MeshLocator::closestPointWithin(const Eigen::Vector3d& query, doubl
   SurfacePoint best;
   // Start from the bound, nudged up so a point exactly at max_distance is kept.
   best.distance = std::nextafter(max_distance * max_distance, std::numeric_limits<double>::infinity());
-  // Depth-first, nearer child first; the tree depth is at most ~log2(M) + 1,
-  // and each level leaves at most one pending sibling on the stack.
-  std::array<std::pair<std::int32_t, double>, 128> stack{};
-  int top = 0;
-  stack[top++] = {0, boxDistanceSquared(query, nodes_[0].lo, nodes_[0].hi)};
-  while (top > 0) {
-    const auto [index, bound] = stack[--top];
-    if (bound >= best.distance) continue;
-    const Node& node = nodes_[static_cast<std::size_t>(index)];
-    if (node.count > 0) {
-      for (std::int32_t i = node.first; i < node.first + node.count; ++i) {
-        testFace(query, i, best);
+  const double q[3] = {query.x(), query.y(), query.z()};
+  auto testLeaf = [&](std::int32_t first, std::int32_t count) {
+    for (std::int32_t i = first; i < first + count; ++i) {
+      const auto& tri = triangles_[static_cast<std::size_t>(i)];
+      Eigen::Vector3d bary;
+      const Eigen::Vector3d p = closestOnTriangle(query, tri[0], tri[1], tri[2], bary);
+      const double d2 = (p - query).squaredNorm();
+      if (d2 < best.distance) {  // squared during the search
+        best.distance = d2;
+        best.point = p;
+        best.face = order_[static_cast<std::size_t>(i)];
+        best.barycentric = bary;
       }
-      continue;
     }
-    const Node& l = nodes_[static_cast<std::size_t>(node.left)];
-    const Node& r = nodes_[static_cast<std::size_t>(node.right)];
-    const double dl = boxDistanceSquared(query, l.lo, l.hi);
-    const double dr = boxDistanceSquared(query, r.lo, r.hi);
-    if (dl <= dr) {
-      if (dr < best.distance) stack[top++] = {node.right, dr};
-      if (dl < best.distance) stack[top++] = {node.left, dl};
-    } else {
-      if (dl < best.distance) stack[top++] = {node.left, dl};
-      if (dr < best.distance) stack[top++] = {node.right, dr};
+  };
+  if (search_nodes_.empty()) {  // the whole tree is one leaf
+    if (boxDistanceSquared(query, nodes_[0].lo, nodes_[0].hi) < best.distance) testLeaf(nodes_[0].first, nodes_[0].count);
+  } else if (boxDistanceSquared(query, nodes_[0].lo, nodes_[0].hi) < best.distance) {
+    // Depth-first, nearer child first; an entry is (leaf count or 0, index,
+    // squared distance to its box). The tree depth is at most ~log2(M) + 1,
+    // and each level leaves at most one pending sibling on the stack.
+    struct Pending {
+      std::int32_t index;
+      std::int32_t count;  // > 0: a leaf (faces index .. index + count); 0: a search node
+      double bound;
+    };
+    std::array<Pending, 128> stack;
+    int top = 0;
+    stack[top++] = {0, 0, 0.0};
+    while (top > 0) {
+      const Pending item = stack[--top];
+      if (item.bound >= best.distance) continue;
+      if (item.count > 0) {
+        testLeaf(item.index, item.count);
+        continue;
+      }
+      const SearchNode& node = search_nodes_[static_cast<std::size_t>(item.index)];
+      const double d0 = childBoxDistanceSquared(q, node.lo[0], node.hi[0]);
+      const double d1 = childBoxDistanceSquared(q, node.lo[1], node.hi[1]);
+      const int near = d1 < d0 ? 1 : 0;
+      const int far = 1 - near;
+      const double dn = near == 0 ? d0 : d1;
+      const double df = near == 0 ? d1 : d0;
+      if (df < best.distance) stack[top++] = {node.first[far], node.count[far], df};
+      if (dn < best.distance) {
+        if (node.count[near] > 0) {
+          testLeaf(node.first[near], node.count[near]);  // no need to push what is tested now
+        } else {
+          stack[top++] = {node.first[near], 0, dn};
+        }
+      }
     }
   }
   if (best.face < 0) return SurfacePoint{};
@@ -334,7 +431,8 @@ SurfacePoint MeshLocator::closestPointBruteForce(const Eigen::Vector3d& query) c
 }
 
 SignedSurfacePoint MeshLocator::signedClosestPoint(const Eigen::Vector3d& query, bool allow_open) const {
-  if (!closed_ && !allow_open) {
+  const Topology& topology = this->topology();
+  if (!topology.closed && !allow_open) {
     throw ComputationError(
         "MeshLocator::signedClosestPoint: the mesh is not closed (some edge is not shared by exactly two "
         "consistently oriented faces), so inside/outside is undefined; close the mesh or pass allow_open");
@@ -352,11 +450,11 @@ SignedSurfacePoint MeshLocator::signedClosestPoint(const Eigen::Vector3d& query,
   } else if (zeros == 1) {
     int z = 0;
     while (w[z] != 0.0) ++z;
-    normal = edge_pseudo_normals_[static_cast<std::size_t>(3 * f + (z + 1) % 3)];
+    normal = topology.edge_pseudo_normals[static_cast<std::size_t>(3 * f + (z + 1) % 3)];
   } else {
     int k = 0;
     while (w[k] == 0.0) ++k;
-    normal = vertex_pseudo_normals_.row(faces_(f, k)).transpose();
+    normal = topology.vertex_pseudo_normals.row(faces_(f, k)).transpose();
   }
   const double side = (query - result.point).dot(normal);
   result.signed_distance = side < 0.0 ? -result.distance : result.distance;

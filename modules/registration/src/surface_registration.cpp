@@ -4,11 +4,13 @@
 #include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <numeric>
 #include <string>
 
 #include "mrsns/core/error.h"
 #include "mrsns/core/log.h"
+#include "mrsns/core/parallel.h"
 #include "mrsns/core/rigid.h"
 #include "mrsns/registration/paired_point.h"
 
@@ -77,19 +79,74 @@ SurfacePoint closest(const MeshLocator& locator, const Eigen::Vector3d& p, doubl
   return locator.closestPoint(p);
 }
 
+// The points in Morton (Z-curve) order of their positions: consecutive
+// queries then walk nearly the same BVH path and find it in cache. A random
+// order (points sampled anywhere on a 151k-triangle surface) misses the
+// cache at almost every level of the tree and costs several times more.
+std::vector<std::uint32_t> spatialOrder(std::span<const Eigen::Vector3d> points) {
+  Eigen::Vector3d lo = points.front(), hi = points.front();
+  for (const auto& p : points) {
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
+  const Eigen::Vector3d extent = (hi - lo).cwiseMax(1e-12);
+  auto spread = [](std::uint64_t x) {  // 21 bits -> every third bit
+    x &= 0x1fffffULL;
+    x = (x | (x << 32)) & 0x1f00000000ffffULL;
+    x = (x | (x << 16)) & 0x1f0000ff0000ffULL;
+    x = (x | (x << 8)) & 0x100f00f00f00f00fULL;
+    x = (x | (x << 4)) & 0x10c30c30c30c30c3ULL;
+    x = (x | (x << 2)) & 0x1249249249249249ULL;
+    return x;
+  };
+  std::vector<std::pair<std::uint64_t, std::uint32_t>> keyed(points.size());
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const Eigen::Vector3d u = ((points[i] - lo).cwiseQuotient(extent) * 2097151.0).cwiseMax(0.0).cwiseMin(2097151.0);
+    keyed[i] = {spread(static_cast<std::uint64_t>(u.x())) | (spread(static_cast<std::uint64_t>(u.y())) << 1) |
+                    (spread(static_cast<std::uint64_t>(u.z())) << 2),
+                static_cast<std::uint32_t>(i)};
+  }
+  std::sort(keyed.begin(), keyed.end());
+  std::vector<std::uint32_t> order(points.size());
+  for (std::size_t i = 0; i < keyed.size(); ++i) order[i] = keyed[i].second;
+  return order;
+}
+
 // Correspondences of the transformed points, after distance rejection,
 // trimming and robust weighting. `previous` (per point, the last closest
 // point, NaN when unknown) speeds up the search and is updated.
 std::vector<Correspondence> correspond(std::span<const Eigen::Vector3d> moving, const IcpSurface& fixed,
                                        const Eigen::Isometry3d& T, const IcpOptions& options,
-                                       std::vector<Eigen::Vector3d>& previous) {
+                                       std::vector<Eigen::Vector3d>& previous, std::vector<SurfacePoint>& found,
+                                       const std::vector<std::uint32_t>& order) {
+  // The queries are independent: found in parallel (each thread a run of the
+  // spatial order) into per-point slots, gathered in index order (the same
+  // result for any thread count).
+  found.resize(moving.size());
+  const double inf = std::numeric_limits<double>::infinity();
+  parallelForBlocks(
+      0, moving.size(),
+      [&](std::size_t first, std::size_t last) {
+        // Any surface point bounds the distance to the closest one: this
+        // point's last closest point moved with the points, or the closest
+        // point just found for its neighbour in the spatial order (the
+        // tighter while a step moves the points far, and on the first pass).
+        // The bound only prunes the search: the result is the same.
+        Eigen::Vector3d neighbour_closest = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
+        for (std::size_t n = first; n < last; ++n) {
+          const std::size_t i = order[n];
+          const Eigen::Vector3d p = T * moving[i];
+          double bound = previous[i].allFinite() ? (p - previous[i]).norm() : inf;
+          if (neighbour_closest.allFinite()) bound = std::min(bound, (p - neighbour_closest).norm());
+          found[i] = closest(fixed.locator(), p, bound, options.max_correspondence_distance_mm);
+          if (found[i].face >= 0) neighbour_closest = found[i].point;
+        }
+      },
+      options.threads, 256);
   std::vector<Correspondence> c;
   c.reserve(moving.size());
-  const double inf = std::numeric_limits<double>::infinity();
   for (std::size_t i = 0; i < moving.size(); ++i) {
-    const Eigen::Vector3d p = T * moving[i];
-    const double bound = previous[i].allFinite() ? (p - previous[i]).norm() : inf;
-    const SurfacePoint sp = closest(fixed.locator(), p, bound, options.max_correspondence_distance_mm);
+    const SurfacePoint& sp = found[i];
     if (sp.face < 0 || sp.distance > options.max_correspondence_distance_mm) {
       previous[i].setConstant(std::numeric_limits<double>::quiet_NaN());
       continue;
@@ -97,7 +154,7 @@ std::vector<Correspondence> correspond(std::span<const Eigen::Vector3d> moving, 
     previous[i] = sp.point;
     Correspondence k;
     k.index = static_cast<int>(i);
-    k.p = p;
+    k.p = T * moving[i];
     k.q = sp.point;
     k.n = fixed.faceNormals().row(sp.face).transpose();
     k.distance = sp.distance;
@@ -243,8 +300,12 @@ IcpResult registerSurface(std::span<const Eigen::Vector3d> moving, const IcpSurf
   Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
   for (const auto& p : moving) centroid += p;
   centroid /= static_cast<double>(moving.size());
-  double radius = 0.0;
-  for (const auto& p : moving) radius = std::max(radius, (p - centroid).norm());
+  double radius = 0.0, spread = 0.0;
+  for (const auto& p : moving) {
+    radius = std::max(radius, (p - centroid).norm());
+    spread += (p - centroid).squaredNorm();
+  }
+  spread = std::sqrt(spread / static_cast<double>(moving.size()));  // RMS distance to the centroid
 
   IcpResult result;
   Eigen::Isometry3d T = initial_fixed_T_moving;
@@ -252,8 +313,10 @@ IcpResult registerSurface(std::span<const Eigen::Vector3d> moving, const IcpSurf
                                         Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN()));
   double previous_rms = std::numeric_limits<double>::infinity();
   bool coarse = options.method == IcpMethod::PointToPlane && options.point_to_point_warmup_ratio > 0.0;
+  std::vector<SurfacePoint> found;
+  const std::vector<std::uint32_t> order = spatialOrder(moving);
   for (int iteration = 0; iteration < options.max_iterations; ++iteration) {
-    const auto c = correspond(moving, fixed, T, options, previous);
+    const auto c = correspond(moving, fixed, T, options, previous, found, order);
     if (c.size() < 3) {
       throw ComputationError("ICP: only " + std::to_string(c.size()) + " of " + std::to_string(moving.size()) +
                              " points have a surface point within the correspondence distance at iteration " +
@@ -276,9 +339,19 @@ IcpResult registerSurface(std::span<const Eigen::Vector3d> moving, const IcpSurf
     // Far from the solution, point-to-plane steps can slide into a wrong
     // (e.g. flipped) basin; point-to-point steps have the wider basin. Switch
     // once a step moves the points less than their distance to the surface.
-    if (coarse && motion <= options.point_to_point_warmup_ratio * rms) coarse = false;
+    // Point-to-point converges linearly (each step ~0.7 of the last on
+    // smooth surfaces), so once its steps rotate by less than a couple of
+    // degrees and shift the centroid by a small part of the points' spread,
+    // the remaining error is well inside point-to-plane's basin.
+    const double step_rotation = rotationAngle(delta.linear());
+    const double step_shift = (delta * centre_before - centre_before).norm();
+    if (coarse && (motion <= options.point_to_point_warmup_ratio * rms ||
+                   (step_rotation <= options.warmup_rotation_rad && step_shift <= 0.1 * spread))) {
+      coarse = false;
+    }
     const bool small_motion = motion < options.motion_tolerance_mm;
     const bool flat_rms = std::abs(previous_rms - rms) <= options.relative_rms_tolerance * std::max(rms, 1e-12);
+
     previous_rms = rms;
     // Convergence counts only for steps of the requested method.
     if ((small_motion || flat_rms) && !warmup_step) {
@@ -290,7 +363,7 @@ IcpResult registerSurface(std::span<const Eigen::Vector3d> moving, const IcpSurf
   result.fixed_T_moving = T;
 
   // Figures at the result: the last correspondences with the final transform.
-  const auto c = correspond(moving, fixed, T, options, previous);
+  const auto c = correspond(moving, fixed, T, options, previous, found, order);
   result.inliers.reserve(c.size());
   double sum = 0.0;
   for (const auto& x : c) {
@@ -299,10 +372,19 @@ IcpResult registerSurface(std::span<const Eigen::Vector3d> moving, const IcpSurf
   }
   result.rms_mm = c.empty() ? 0.0 : std::sqrt(sum / static_cast<double>(c.size()));
   result.inlier_fraction = static_cast<double>(c.size()) / static_cast<double>(moving.size());
+  // Every point's distance: the last search found it for the points within
+  // the correspondence distance; the others are searched without a limit.
   result.distances_mm.resize(moving.size());
-  for (std::size_t i = 0; i < moving.size(); ++i) {
-    result.distances_mm[i] = fixed.locator().closestPoint(T * moving[i]).distance;
-  }
+  parallelForBlocks(
+      0, moving.size(),
+      [&](std::size_t first, std::size_t last) {
+        for (std::size_t n = first; n < last; ++n) {
+          const std::size_t i = order[n];
+          result.distances_mm[i] =
+              found[i].face >= 0 ? found[i].distance : fixed.locator().closestPoint(T * moving[i]).distance;
+        }
+      },
+      options.threads, 256);
   if (options.max_iterations == 0) result.initial_rms_mm = result.rms_mm;
   logger()->debug("ICP: {} iterations, rms {:.4f} mm (start {:.4f}), inliers {:.3f}, converged {}", result.iterations,
                   result.rms_mm, result.initial_rms_mm, result.inlier_fraction, result.converged);

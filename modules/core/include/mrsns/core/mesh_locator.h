@@ -5,6 +5,8 @@
 #include <array>
 #include <cstdint>
 #include <limits>
+#include <memory>
+#include <mutex>
 #include <vector>
 
 #include "mrsns/core/mesh.h"
@@ -55,7 +57,7 @@ class MeshLocator {
 
   [[nodiscard]] Eigen::Index faceCount() const { return faces_.rows(); }
   /// True when the mesh is closed and consistently oriented (signed distance is defined).
-  [[nodiscard]] bool closed() const { return closed_; }
+  [[nodiscard]] bool closed() const { return topology().closed; }
 
   /// The closest point on the surface (not just the closest vertex).
   [[nodiscard]] SurfacePoint closestPoint(const Eigen::Vector3d& query) const;
@@ -103,19 +105,38 @@ class MeshLocator {
     std::int32_t right = -1;
   };
 
+  // An inner node for the closest-point search: its two children's boxes
+  // (float, rounded outwards) and, per child, a search-node index (count 0)
+  // or a leaf's faces [first, first + count). One cache line.
+  struct alignas(64) SearchNode {
+    float lo[2][3] = {};
+    float hi[2][3] = {};
+    std::int32_t first[2] = {0, 0};
+    std::int32_t count[2] = {0, 0};
+  };
+
   void build(const MeshLocatorOptions& options);
-  void computePseudoNormals();
+  // What only signed queries need, found on first use (thread-safe): the
+  // closedness test and the pseudo-normals cost more than the BVH itself,
+  // and ICP or unsigned distances never ask for them.
+  struct Topology {
+    std::once_flag once;
+    bool closed = false;
+    PointsN3 vertex_pseudo_normals;
+    std::vector<Eigen::Vector3d> edge_pseudo_normals;  // 3 per face: edge k joins corners k and k+1
+  };
+  [[nodiscard]] const Topology& topology() const;
+  void computePseudoNormals(Topology& t) const;
   void testFace(const Eigen::Vector3d& query, Eigen::Index slot, SurfacePoint& best) const;
 
   PointsN3 vertices_;
   Eigen::Matrix<std::int32_t, Eigen::Dynamic, 3, Eigen::RowMajor> faces_;
   std::vector<Node> nodes_;
+  std::vector<SearchNode> search_nodes_;  // inner nodes, root first
   std::vector<std::int32_t> order_;                        // face indices, grouped by leaf
   std::vector<std::array<Eigen::Vector3d, 3>> triangles_;  // corners of face order_[i]
-  bool closed_ = false;
+  std::shared_ptr<Topology> topology_ = std::make_shared<Topology>();  // shared by copies (same mesh)
   PointsN3 face_normals_;
-  PointsN3 vertex_pseudo_normals_;
-  std::vector<Eigen::Vector3d> edge_pseudo_normals_;  // 3 per face: edge k joins corners k and k+1
   double scale_ = 1.0;                                // bounding-box diagonal, for tolerances
 };
 

@@ -9,8 +9,9 @@
 // absolute deviation of the residuals. Initial alignments from landmarks or
 // from the principal axes.
 //
-// Deterministic: no threads, no random numbers; the same input gives the
-// same bits.
+// Deterministic: no random numbers, and the closest-point queries (the only
+// parallel part) are gathered in point order, so the same input gives the
+// same bits with any number of threads.
 #include <Eigen/Geometry>
 #include <limits>
 #include <memory>
@@ -50,11 +51,20 @@ struct IcpOptions {
   /// convergence) until a step moves the points by less than this times their
   /// RMS distance to the surface; 0 uses point-to-plane from the start.
   double point_to_point_warmup_ratio = 0.5;
+  /// ... or once a point-to-point step rotates by less than this (rad) and
+  /// moves the centroid by less than a tenth of the points' RMS spread: from
+  /// there the remaining error is well within point-to-plane's basin (a
+  /// 45 deg start still converges; the slow point-to-point crawl to the
+  /// noise floor is skipped). 0 keeps only the ratio test.
+  double warmup_rotation_rad = 2.0 * 3.14159265358979323846 / 180.0;
   /// Converged when one iteration moves every point by less than this (mm),
   /// estimated over the points' bounding radius.
   double motion_tolerance_mm = 1e-4;
   /// ... or when the weighted RMS changes by less than this fraction.
   double relative_rms_tolerance = 1e-7;
+  /// Threads for the closest-point queries (0 = the hardware's); the result
+  /// does not depend on it.
+  unsigned threads = 0;
 };
 
 struct IcpResult {
