@@ -106,6 +106,39 @@ TEST(Icp, ConvergesFromTenRandomStartsOf22mmAnd45Degrees) {
   }
 }
 
+// From 4000 points on, the iterations first run on a quarter of the points;
+// the answer is still all points' fixed point: the same as without, within
+// the convergence tolerance, from near and far starts.
+TEST(Icp, CoarseToFineEndsAtAllPointsFixedPoint) {
+  const auto& s = scene();
+  const auto many = test::transformPoints(s.truth.inverse(), test::sampleSurface(s.mesh, 6000, kSigma, 11));
+  std::mt19937_64 rng(12);
+  for (const double degrees : {10.0, 40.0}) {
+    const auto start = test::randomPerturbation(rng, degrees * kDegree, 15.0, Eigen::Vector3d::Zero()) * s.truth;
+    IcpOptions with;
+    IcpOptions without;
+    without.coarse_to_fine = false;
+    const auto a = registerSurface(many, s.surface, start, with);
+    const auto b = registerSurface(many, s.surface, start, without);
+    SCOPED_TRACE(std::to_string(degrees) + " deg start");
+    EXPECT_TRUE(a.converged);
+    EXPECT_TRUE(b.converged);
+    // Both stop within their convergence tolerances of the same optimum: far
+    // below the estimate's own statistical spread (noise sigma / sqrt(N) in
+    // translation, divided by the points' RMS radius in rotation); a quarter of it.
+    const Eigen::Vector3d c = centroid(many);
+    double spread = 0.0;
+    for (const auto& p : many) spread += (p - c).squaredNorm();
+    spread = std::sqrt(spread / static_cast<double>(many.size()));
+    const double sd_translation = kSigma / std::sqrt(static_cast<double>(many.size()));
+    const auto e = test::poseError(a.fixed_T_moving, b.fixed_T_moving, c);
+    EXPECT_LT(e.rotation, 0.25 * sd_translation / spread);
+    EXPECT_LT(e.translation, 0.25 * sd_translation);
+    EXPECT_NEAR(a.rms_mm, b.rms_mm, 1e-5);
+    expectNearTruth(a, s.truth, 0.15 * kDegree, 0.05, centroid(many));
+  }
+}
+
 TEST(Icp, PointToPlaneNeedsFewerIterationsThanPointToPoint) {
   const auto& s = scene();
   std::mt19937_64 rng(5);

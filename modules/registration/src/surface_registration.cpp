@@ -118,14 +118,16 @@ std::vector<std::uint32_t> spatialOrder(std::span<const Eigen::Vector3d> points)
 std::vector<Correspondence> correspond(std::span<const Eigen::Vector3d> moving, const IcpSurface& fixed,
                                        const Eigen::Isometry3d& T, const IcpOptions& options,
                                        std::vector<Eigen::Vector3d>& previous, std::vector<SurfacePoint>& found,
-                                       const std::vector<std::uint32_t>& order) {
+                                       const std::vector<std::uint32_t>& order,
+                                       const std::vector<std::uint32_t>& by_index) {
   // The queries are independent: found in parallel (each thread a run of the
   // spatial order) into per-point slots, gathered in index order (the same
-  // result for any thread count).
+  // result for any thread count). Only the points of `order` (the same
+  // points as `by_index`) take part.
   found.resize(moving.size());
   const double inf = std::numeric_limits<double>::infinity();
   parallelForBlocks(
-      0, moving.size(),
+      0, order.size(),
       [&](std::size_t first, std::size_t last) {
         // Any surface point bounds the distance to the closest one: this
         // point's last closest point moved with the points, or the closest
@@ -144,8 +146,8 @@ std::vector<Correspondence> correspond(std::span<const Eigen::Vector3d> moving, 
       },
       options.threads, 256);
   std::vector<Correspondence> c;
-  c.reserve(moving.size());
-  for (std::size_t i = 0; i < moving.size(); ++i) {
+  c.reserve(by_index.size());
+  for (const std::uint32_t i : by_index) {
     const SurfacePoint& sp = found[i];
     if (sp.face < 0 || sp.distance > options.max_correspondence_distance_mm) {
       previous[i].setConstant(std::numeric_limits<double>::quiet_NaN());
@@ -162,7 +164,7 @@ std::vector<Correspondence> correspond(std::span<const Eigen::Vector3d> moving, 
   }
   if (options.trim_fraction < 1.0) {
     const auto keep = std::max<std::size_t>(
-        3, static_cast<std::size_t>(std::llround(options.trim_fraction * static_cast<double>(moving.size()))));
+        3, static_cast<std::size_t>(std::llround(options.trim_fraction * static_cast<double>(by_index.size()))));
     if (keep < c.size()) {
       // Ties broken by index so the kept set never depends on the sort's whims.
       auto closer = [](const Correspondence& a, const Correspondence& b) {
@@ -314,9 +316,23 @@ IcpResult registerSurface(std::span<const Eigen::Vector3d> moving, const IcpSurf
   double previous_rms = std::numeric_limits<double>::infinity();
   bool coarse = options.method == IcpMethod::PointToPlane && options.point_to_point_warmup_ratio > 0.0;
   std::vector<SurfacePoint> found;
+  // All points in spatial and in index order, and a quarter of them (every
+  // fourth in space, so spread like all of them) for the coarse level: after
+  // the first pass, iterations run on the quarter until they converge, then
+  // on all points until they converge again. Far from the solution a quarter
+  // of the points steers as well as all of them for a quarter of the queries.
   const std::vector<std::uint32_t> order = spatialOrder(moving);
+  std::vector<std::uint32_t> all_by_index(moving.size());
+  std::iota(all_by_index.begin(), all_by_index.end(), 0U);
+  std::vector<std::uint32_t> coarse_order, coarse_by_index;
+  for (std::size_t n = 0; n < order.size(); n += 4) coarse_order.push_back(order[n]);
+  coarse_by_index = coarse_order;
+  std::sort(coarse_by_index.begin(), coarse_by_index.end());
+  const bool use_coarse = options.coarse_to_fine && moving.size() >= 4000;
+  bool coarse_level = false;
   for (int iteration = 0; iteration < options.max_iterations; ++iteration) {
-    const auto c = correspond(moving, fixed, T, options, previous, found, order);
+    const auto c = coarse_level ? correspond(moving, fixed, T, options, previous, found, coarse_order, coarse_by_index)
+                                : correspond(moving, fixed, T, options, previous, found, order, all_by_index);
     if (c.size() < 3) {
       throw ComputationError("ICP: only " + std::to_string(c.size()) + " of " + std::to_string(moving.size()) +
                              " points have a surface point within the correspondence distance at iteration " +
@@ -353,17 +369,27 @@ IcpResult registerSurface(std::span<const Eigen::Vector3d> moving, const IcpSurf
     const bool flat_rms = std::abs(previous_rms - rms) <= options.relative_rms_tolerance * std::max(rms, 1e-12);
 
     previous_rms = rms;
-    // Convergence counts only for steps of the requested method.
-    if ((small_motion || flat_rms) && !warmup_step) {
+    // Convergence counts only for steps of the requested method, on all
+    // points. The coarse level hands over sooner: its optimum is within the
+    // noise of all points' anyway, which the following steps reach.
+    if (coarse_level && !warmup_step &&
+        (motion < 100.0 * options.motion_tolerance_mm ||
+         std::abs(previous_rms - rms) <= 1e3 * options.relative_rms_tolerance * std::max(rms, 1e-12))) {
+      coarse_level = false;
+      previous_rms = std::numeric_limits<double>::infinity();  // another set of points
+      continue;
+    }
+    if ((small_motion || flat_rms) && !warmup_step && !coarse_level) {
       result.converged = true;
       break;
     }
+    if (iteration == 0 && use_coarse) coarse_level = true;
   }
   if (options.max_iterations == 0) result.converged = true;
   result.fixed_T_moving = T;
 
   // Figures at the result: the last correspondences with the final transform.
-  const auto c = correspond(moving, fixed, T, options, previous, found, order);
+  const auto c = correspond(moving, fixed, T, options, previous, found, order, all_by_index);
   result.inliers.reserve(c.size());
   double sum = 0.0;
   for (const auto& x : c) {

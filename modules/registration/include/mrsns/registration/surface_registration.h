@@ -65,6 +65,10 @@ struct IcpOptions {
   /// Threads for the closest-point queries (0 = the hardware's); the result
   /// does not depend on it.
   unsigned threads = 0;
+  /// With 4000 points or more, iterate on every fourth point (in space)
+  /// after the first pass until converged, then on all points until
+  /// converged again: the result is all points' fixed point either way.
+  bool coarse_to_fine = true;
 };
 
 struct IcpResult {
