@@ -121,13 +121,18 @@ TEST(LumenSegmentation, FindsTheLumenInASpeckledSliceFromAnOffsetSeed) {
   EXPECT_FALSE(segmentLumens(image, std::span<const Polyline3d>(&far_seed, 1))[0].ok);
 }
 
-TEST(ShapeTracker, ExactContoursOfAModelShapePullThePosteriorToIt) {
-  std::mt19937_64 rng(8);
+// A vessel model from 12 random phantoms (the tracker tests' model).
+ShapeModel vesselModel(std::mt19937_64& rng) {
   std::vector<TriangleMesh> training;
   for (int i = 0; i < 12; ++i) training.push_back(makeVesselPhantom(randomVesselDeformation(rng)));
   ShapeModelBuildOptions build;
   build.align = false;
-  const ShapeModel model = buildShapeModel(training, build).model;
+  return buildShapeModel(training, build).model;
+}
+
+TEST(ShapeTracker, ExactContoursOfAModelShapePullThePosteriorToIt) {
+  std::mt19937_64 rng(8);
+  const ShapeModel model = vesselModel(rng);
   const Eigen::VectorXd truth = sampleShape(model, rng);
   const TriangleMesh truth_mesh = shapeMesh(model, truth);
   ShapeTrackerOptions opts;
@@ -172,11 +177,7 @@ TEST(ShapeTracker, ExactContoursOfAModelShapePullThePosteriorToIt) {
 // the plane crosses the vessels, grazes them or misses them.
 TEST(ShapeTracker, TheCutNearThePlaneIsTheCutOfTheWholePosteriorShape) {
   std::mt19937_64 rng(21);
-  std::vector<TriangleMesh> training;
-  for (int i = 0; i < 12; ++i) training.push_back(makeVesselPhantom(randomVesselDeformation(rng)));
-  ShapeModelBuildOptions build;
-  build.align = false;
-  const ShapeModel model = buildShapeModel(training, build).model;
+  const ShapeModel model = vesselModel(rng);
   const TriangleMesh truth_mesh = shapeMesh(model, sampleShape(model, rng));
   ShapeTrackerOptions opts;
   opts.posterior.noise_sigma_mm = 0.1;
@@ -216,11 +217,7 @@ TEST(ShapeTracker, TheCutNearThePlaneIsTheCutOfTheWholePosteriorShape) {
 
 TEST(ShapeTracker, AFrameThatMakesThePosteriorImplausibleIsUndone) {
   std::mt19937_64 rng(8);
-  std::vector<TriangleMesh> training;
-  for (int i = 0; i < 12; ++i) training.push_back(makeVesselPhantom(randomVesselDeformation(rng)));
-  ShapeModelBuildOptions build;
-  build.align = false;
-  const ShapeModel model = buildShapeModel(training, build).model;
+  const ShapeModel model = vesselModel(rng);
   Eigen::Isometry3d model_T_image = Eigen::Isometry3d::Identity();
   model_T_image.translation() = Eigen::Vector3d(-16.0, -12.0, -15.0);  // mid-CCA
   // A lumen 2.5 times the model's (8 % radius SD in training): no plausible

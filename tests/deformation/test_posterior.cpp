@@ -176,7 +176,7 @@ TEST(Posterior, IncrementalEquationsMatchTheOneShotPosteriorAfterAddsAndReplaces
   EXPECT_FALSE(direct.excluded.empty());
   EXPECT_NEAR(incremental.rms_residual_mm, direct.rms_residual_mm, 1e-9);
   EXPECT_EQ(incremental.mean.size(), 0);  // the shape is evaluated only on request
-  EXPECT_LT((posteriorShape(model, incremental.coefficients) - direct.mean).norm(), 1e-8);
+  EXPECT_LT((modelInstance(model, incremental.coefficients) - direct.mean).norm(), 1e-8);
 
   // Cleared, it is the prior again; a wrong index is refused.
   equations.clear();

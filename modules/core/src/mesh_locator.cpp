@@ -367,18 +367,7 @@ SurfacePoint MeshLocator::closestPointWithin(const Eigen::Vector3d& query, doubl
   best.distance = std::nextafter(max_distance * max_distance, std::numeric_limits<double>::infinity());
   const double q[3] = {query.x(), query.y(), query.z()};
   auto testLeaf = [&](std::int32_t first, std::int32_t count) {
-    for (std::int32_t i = first; i < first + count; ++i) {
-      const auto& tri = triangles_[static_cast<std::size_t>(i)];
-      Eigen::Vector3d bary;
-      const Eigen::Vector3d p = closestOnTriangle(query, tri[0], tri[1], tri[2], bary);
-      const double d2 = (p - query).squaredNorm();
-      if (d2 < best.distance) {  // squared during the search
-        best.distance = d2;
-        best.point = p;
-        best.face = order_[static_cast<std::size_t>(i)];
-        best.barycentric = bary;
-      }
-    }
+    for (std::int32_t i = first; i < first + count; ++i) testFace(query, i, best);
   };
   if (search_nodes_.empty()) {  // the whole tree is one leaf
     if (boxDistanceSquared(query, nodes_[0].lo, nodes_[0].hi) < best.distance) testLeaf(nodes_[0].first, nodes_[0].count);

@@ -7,6 +7,7 @@
 #include <string>
 
 #include "mrsns/core/error.h"
+#include "mrsns/deformation/shape_model_ops.h"
 
 namespace mrsns::deformation {
 
@@ -31,22 +32,21 @@ Eigen::Vector3d observationMean(const ShapeModel& model, const ModelPointObserva
 
 namespace {
 
-void validateObservations(const ShapeModel& model, std::span<const ModelPointObservation> obs) {
+// `index` names the observation in the message (its place in V^p).
+void validateObservation(const ShapeModel& model, const ModelPointObservation& o, std::size_t index) {
   const Eigen::Index n_points = model.pointCount();
-  for (std::size_t i = 0; i < obs.size(); ++i) {
-    bool any = false;
-    for (int s = 0; s < 4; ++s) {
-      const auto v = obs[i].vertices[s];
-      if (v < -1 || v >= n_points) {
-        throw InvalidArgumentError("computePosterior: observation " + std::to_string(i) + " refers to vertex " +
-                                   std::to_string(v) + " of a model with " + std::to_string(n_points) + " points");
-      }
-      any = any || (v >= 0 && obs[i].weights[s] != 0.0);
+  bool any = false;
+  for (int s = 0; s < 4; ++s) {
+    const auto v = o.vertices[s];
+    if (v < -1 || v >= n_points) {
+      throw InvalidArgumentError("computePosterior: observation " + std::to_string(index) + " refers to vertex " +
+                                 std::to_string(v) + " of a model with " + std::to_string(n_points) + " points");
     }
-    if (!any || !obs[i].point.allFinite() || !obs[i].weights.allFinite()) {
-      throw InvalidArgumentError("computePosterior: observation " + std::to_string(i) +
-                                 " has no vertex with non-zero weight or a non-finite point/weight");
-    }
+    any = any || (v >= 0 && o.weights[s] != 0.0);
+  }
+  if (!any || !o.point.allFinite() || !o.weights.allFinite()) {
+    throw InvalidArgumentError("computePosterior: observation " + std::to_string(index) +
+                               " has no vertex with non-zero weight or a non-finite point/weight");
   }
 }
 
@@ -62,7 +62,7 @@ PosteriorNormalEquations::PosteriorNormalEquations(Eigen::Index modes, int rebui
 }
 
 void PosteriorNormalEquations::add(const ShapeModel& model, const ModelPointObservation& observation) {
-  validateObservations(model, std::span<const ModelPointObservation>(&observation, 1));
+  validateObservation(model, observation, size());
   if (model.modeCount() != modes()) {
     throw InvalidArgumentError("PosteriorNormalEquations: the model has " + std::to_string(model.modeCount()) +
                                " modes, the equations " + std::to_string(modes()));
@@ -87,7 +87,7 @@ void PosteriorNormalEquations::replace(std::size_t index, const ShapeModel& mode
     throw InvalidArgumentError("PosteriorNormalEquations::replace: observation " + std::to_string(index) + " of " +
                                std::to_string(size()));
   }
-  validateObservations(model, std::span<const ModelPointObservation>(&observation, 1));
+  validateObservation(model, observation, index);
   const auto i = static_cast<Eigen::Index>(index);
   auto rows = rows_.middleRows(3 * i, 3);
   qtq_.noalias() -= rows.transpose() * rows;
@@ -198,26 +198,14 @@ PosteriorResult PosteriorNormalEquations::solve(const PosteriorOptions& options)
   return r;
 }
 
-Eigen::VectorXd posteriorShape(const ShapeModel& model, const Eigen::VectorXd& alpha) {
-  if (alpha.size() != model.modeCount()) {
-    throw InvalidArgumentError("posteriorShape: " + std::to_string(alpha.size()) + " coefficients for a model of " +
-                               std::to_string(model.modeCount()) + " modes");
-  }
-  return model.mean + model.basis * (model.variances.cwiseSqrt().asDiagonal() * alpha);
-}
-
 PosteriorResult computePosterior(const ShapeModel& model, std::span<const ModelPointObservation> observations,
                                  const PosteriorOptions& options) {
-  if (!(options.noise_sigma_mm > 0.0) || !std::isfinite(options.noise_sigma_mm)) {
-    throw InvalidArgumentError("computePosterior: noise_sigma_mm must be positive and finite, got " +
-                               std::to_string(options.noise_sigma_mm));
-  }
-  validateObservations(model, observations);
   if (model.modeCount() < 1) throw InvalidArgumentError("computePosterior: the model has no modes");
+  // add() validates each observation (named by its index), solve() the options.
   PosteriorNormalEquations equations(model.modeCount(), std::numeric_limits<int>::max());
   for (const auto& o : observations) equations.add(model, o);
   PosteriorResult r = equations.solve(options);
-  r.mean = posteriorShape(model, r.coefficients);
+  r.mean = modelInstance(model, r.coefficients);
   if (options.compute_vertex_covariances) {
     r.vertex_covariances.resize(static_cast<std::size_t>(model.pointCount()));
     for (Eigen::Index v = 0; v < model.pointCount(); ++v) {

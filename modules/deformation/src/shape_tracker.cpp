@@ -65,7 +65,6 @@ std::vector<ModelContour> PosteriorShapeTracker::cutShape(const Eigen::VectorXd&
   // Which side each vertex is on, from the prior mean and |Q_v alpha| <= |Q_v|_F |alpha|;
   // the few vertices the bound leaves open are evaluated exactly.
   std::vector<char> positive(static_cast<std::size_t>(count));
-  std::vector<Eigen::Index> evaluated;
   std::vector<Eigen::Vector3d> position;
   std::vector<double> distance;
   std::vector<std::int32_t> slot(static_cast<std::size_t>(count), -1);

@@ -11,9 +11,9 @@
 #include <limits>
 #include <numbers>
 #include <random>
-#include <thread>
 
 #include "mrsns/core/error.h"
+#include "mrsns/core/parallel.h"
 #include "mrsns/registration/label_names.h"
 #include "phantom_anatomy.h"
 
@@ -311,12 +311,10 @@ CervicalPhantom generateCervicalPhantom(const PhantomOptions& options) {
       }
     }
   };
-  const int threads = static_cast<int>(std::clamp(std::thread::hardware_concurrency(), 1U, 4U));
-  std::vector<std::thread> workers;
-  for (int t = 0; t < threads; ++t) {
-    workers.emplace_back(fillSlices, size[2] * t / threads, size[2] * (t + 1) / threads);
-  }
-  for (auto& w : workers) w.join();
+  parallelForBlocks(
+      0, static_cast<std::size_t>(size[2]),
+      [&](std::size_t k_begin, std::size_t k_end) { fillSlices(static_cast<int>(k_begin), static_cast<int>(k_end)); },
+      std::min(defaultThreadCount(), 4U));
 
   // Noise drawn in one sequential pass (Box-Muller over mt19937_64, whose
   // sequence the standard fixes) so a seed gives the same volume everywhere.

@@ -349,7 +349,9 @@ IcpResult registerSurface(std::span<const Eigen::Vector3d> moving, const IcpSurf
     const Eigen::Isometry3d delta = plane_step ? solvePointToPlane(c) : solvePointToPoint(c);
     // Largest displacement of any moving point by this step (bounded over the set's sphere).
     const Eigen::Vector3d centre_before = T * centroid;
-    const double motion = (delta * centre_before - centre_before).norm() + rotationAngle(delta.linear()) * radius;
+    const double step_rotation = rotationAngle(delta.linear());
+    const double step_shift = (delta * centre_before - centre_before).norm();
+    const double motion = step_shift + step_rotation * radius;
     T = delta * T;
     result.iterations = iteration + 1;
     // Far from the solution, point-to-plane steps can slide into a wrong
@@ -359,8 +361,6 @@ IcpResult registerSurface(std::span<const Eigen::Vector3d> moving, const IcpSurf
     // smooth surfaces), so once its steps rotate by less than a couple of
     // degrees and shift the centroid by a small part of the points' spread,
     // the remaining error is well inside point-to-plane's basin.
-    const double step_rotation = rotationAngle(delta.linear());
-    const double step_shift = (delta * centre_before - centre_before).norm();
     if (coarse && (motion <= options.point_to_point_warmup_ratio * rms ||
                    (step_rotation <= options.warmup_rotation_rad && step_shift <= 0.1 * spread))) {
       coarse = false;

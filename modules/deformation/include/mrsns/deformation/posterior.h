@@ -89,8 +89,8 @@ class PosteriorNormalEquations {
   [[nodiscard]] Eigen::Index modes() const { return qtq_.rows(); }
 
   /// The posterior of computePosterior (outlier rounds included) except the
-  /// mean shape, left empty: evaluate only the vertices needed with
-  /// posteriorShape / the coefficients. Throws ComputationError when the
+  /// mean shape, left empty: evaluate only the vertices needed from the
+  /// coefficients (modelInstance gives the whole shape). Throws ComputationError when the
   /// system is not positive definite, InvalidArgumentError for a bad sigma.
   [[nodiscard]] PosteriorResult solve(const PosteriorOptions& options) const;
 
@@ -105,9 +105,6 @@ class PosteriorNormalEquations {
   int changes_since_rebuild_ = 0;
   int rebuild_interval_ = 1024;
 };
-
-/// The shape of `model` at coefficients `alpha`: mean + Q alpha (3N).
-[[nodiscard]] Eigen::VectorXd posteriorShape(const ShapeModel& model, const Eigen::VectorXd& alpha);
 
 /// The posterior of `model` given `observations`. With none it is the prior
 /// (mean, identity coefficient covariance). Throws InvalidArgumentError for a
