@@ -10,12 +10,12 @@
 #include "mrsns/core/directional_stats.h"
 #include "mrsns/core/error.h"
 #include "mrsns/core/rigid.h"
+#include "mrsns/core/units.h"
 
 namespace mrsns {
 namespace {
 
-constexpr double kPi = std::numbers::pi;
-constexpr double kDeg = 180.0 / kPi;
+constexpr double kDegPerRad = 180.0 / kPi;
 
 Eigen::Isometry3d pose(const Eigen::Matrix3d& R, const Eigen::Vector3d& t) {
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
@@ -59,8 +59,8 @@ TEST(DirectionalStats, SymmetricConeHasKnownResultant) {
     EXPECT_NEAR(s.circular_variance / one_minus_cos, 1.0, 1e-12) << alpha;
     EXPECT_NEAR(s.mean_resultant_length, std::cos(alpha), 1e-15);
     EXPECT_NEAR(s.circular_std / std::sqrt(-2.0 * std::log1p(-one_minus_cos)), 1.0, 1e-12);
-    EXPECT_NEAR(s.circular_std_deg, s.circular_std * kDeg, 1e-12);
-    for (double dev : s.deviations_deg) EXPECT_NEAR(dev, alpha * kDeg, 1e-10);
+    EXPECT_NEAR(s.circular_std_deg, s.circular_std * kDegPerRad, 1e-12);
+    for (double dev : s.deviations_deg) EXPECT_NEAR(dev, alpha * kDegPerRad, 1e-10);
     EXPECT_NEAR(s.deviation_std_deg, 0.0, 1e-10);
   }
 }
@@ -115,9 +115,9 @@ TEST(DirectionalStats, GaussianTangentNoiseGivesExpectedCircularStd) {
     EXPECT_NEAR(s.circular_std, expected_std, tolerance) << "axis " << a;
     EXPECT_NEAR(s.circular_variance, sigma * sigma, sigma * sigma * (5.0 / std::sqrt(n) + 1.0 / n));
     EXPECT_LT(std::acos(std::min(1.0, s.mean_direction.dot(R0.col(a)))), 5.0 * sigma * std::sqrt(2.0 / n));
-    EXPECT_NEAR(s.deviation_mean_deg, rayleigh_mean * kDeg, 5.0 * rayleigh_sd / std::sqrt(n) * kDeg);
+    EXPECT_NEAR(s.deviation_mean_deg, rayleigh_mean * kDegPerRad, 5.0 * rayleigh_sd / std::sqrt(n) * kDegPerRad);
     // Relative sd of a sample std is sqrt((kurtosis - 1) / (4 n)), Rayleigh kurtosis 3.245: 1.2%.
-    EXPECT_NEAR(s.deviation_std_deg, rayleigh_sd * kDeg, 5.0 * std::sqrt(2.245 / (4.0 * n)) * rayleigh_sd * kDeg);
+    EXPECT_NEAR(s.deviation_std_deg, rayleigh_sd * kDegPerRad, 5.0 * std::sqrt(2.245 / (4.0 * n)) * rayleigh_sd * kDegPerRad);
   }
 }
 

@@ -12,11 +12,10 @@
 
 #include "mrsns/core/error.h"
 #include "mrsns/core/rigid.h"
+#include "mrsns/core/units.h"
 
 namespace mrsns {
 namespace {
-
-constexpr double kPi = std::numbers::pi;
 
 Eigen::Vector3d randomUnit(std::mt19937& rng) {
   std::normal_distribution<double> n(0.0, 1.0);

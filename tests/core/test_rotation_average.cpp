@@ -11,11 +11,11 @@
 #include "mrsns/core/error.h"
 #include "mrsns/core/rigid.h"
 #include "mrsns/core/rotation_average.h"
+#include "mrsns/core/units.h"
 
 namespace mrsns {
 namespace {
 
-constexpr double kPi = std::numbers::pi;
 constexpr RotationMeanMethod kAllMethods[] = {RotationMeanMethod::kRiemannianL2, RotationMeanMethod::kChordalL2,
                                               RotationMeanMethod::kRiemannianL1};
 

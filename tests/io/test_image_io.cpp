@@ -14,6 +14,8 @@
 namespace mrsns::io {
 namespace {
 
+using ::mrsns::test::writeBytes;
+
 using ::testing::HasSubstr;
 
 template <typename T>
@@ -39,11 +41,6 @@ std::vector<ImageVolume> allPixelTypes() {
           syntheticVolume<std::uint16_t>(PixelType::UInt16), syntheticVolume<std::int16_t>(PixelType::Int16),
           syntheticVolume<std::uint32_t>(PixelType::UInt32), syntheticVolume<std::int32_t>(PixelType::Int32),
           syntheticVolume<float>(PixelType::Float32),        syntheticVolume<double>(PixelType::Float64)};
-}
-
-void writeBytes(const std::filesystem::path& path, const std::string& bytes) {
-  std::ofstream out(path, std::ios::binary);
-  out << bytes;
 }
 
 std::string slurp(const std::filesystem::path& path) {

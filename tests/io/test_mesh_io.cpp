@@ -13,12 +13,9 @@
 namespace mrsns::io {
 namespace {
 
-using ::testing::HasSubstr;
+using ::mrsns::test::writeBytes;
 
-void writeBytes(const std::filesystem::path& path, const std::string& bytes) {
-  std::ofstream out(path, std::ios::binary);
-  out << bytes;
-}
+using ::testing::HasSubstr;
 
 /// A closed octahedron (6 vertices, 8 faces, outward counter-clockwise) with
 /// unit normals and distinct colours.

@@ -18,6 +18,12 @@ constexpr double kDegree = kPi / 180.0;
 /// Radius factor of the vertebra-like shape in direction u (unit): an
 /// ellipsoid with low-order bumps and two lobes (a "spinous process" and a
 /// "transverse process" on one side only) so no rotation maps it onto itself.
+inline Eigen::Vector3d centroid(const std::vector<Eigen::Vector3d>& points) {
+  Eigen::Vector3d c = Eigen::Vector3d::Zero();
+  for (const auto& p : points) c += p;
+  return c / static_cast<double>(points.size());
+}
+
 inline double vertebraRadius(const Eigen::Vector3d& u) {
   const double theta = std::acos(std::clamp(u.z(), -1.0, 1.0));
   const double phi = std::atan2(u.y(), u.x());

@@ -19,6 +19,8 @@
 namespace mrsns::registration {
 namespace {
 
+using test::centroid;
+
 using test::kDegree;
 
 constexpr double kSigma = 0.2;
@@ -35,12 +37,6 @@ struct Scene {
 const Scene& scene() {
   static const Scene s;
   return s;
-}
-
-Eigen::Vector3d centroid(const std::vector<Eigen::Vector3d>& points) {
-  Eigen::Vector3d c = Eigen::Vector3d::Zero();
-  for (const auto& p : points) c += p;
-  return c / static_cast<double>(points.size());
 }
 
 // Translation error measured at the moving points' centroid (where the

@@ -13,18 +13,14 @@
 namespace mrsns::registration {
 namespace {
 
+using test::centroid;
+
 using test::kDegree;
 
 std::vector<Eigen::Vector3d> vertexSubset(const TriangleMesh& mesh, int stride) {
   std::vector<Eigen::Vector3d> points;
   for (Eigen::Index i = 0; i < mesh.vertexCount(); i += stride) points.emplace_back(mesh.vertices.row(i).transpose());
   return points;
-}
-
-Eigen::Vector3d centroid(const std::vector<Eigen::Vector3d>& points) {
-  Eigen::Vector3d c = Eigen::Vector3d::Zero();
-  for (const auto& p : points) c += p;
-  return c / static_cast<double>(points.size());
 }
 
 TEST(IcpRealData, ScalismoMeshAgainstATransformedVertexSubsetOfItself) {

@@ -10,17 +10,13 @@
 #include "mrsns/core/error.h"
 #include "mrsns/robot/ur_rtde_arm.h"
 #include "mrsns/robot/ur_simulator.h"
+#include "ur_simulator_ports.h"
 
 using namespace mrsns::robot;
 
 namespace {
 
-UrSimulatorOptions ephemeral(double unlock_delay_s = 0) {
-  UrSimulatorOptions o;
-  o.rtde_port = o.dashboard_port = o.secondary_port = o.realtime_port = 0;
-  o.unlock_delay_s = unlock_delay_s;
-  return o;
-}
+using ::mrsns::test::ephemeralUrSimulator;
 
 UrRtdeArmOptions clientOf(const UrSimulator& sim, double frequency_hz = 500) {
   UrRtdeArmOptions o;
@@ -47,7 +43,7 @@ bool waitFor(const std::function<bool()>& done, double seconds, const std::funct
 }  // namespace
 
 TEST(UrRtdeArm, StateMirrorsTheSimulator) {
-  UrSimulator sim(ephemeral());
+  UrSimulator sim(ephemeralUrSimulator());
   UrRtdeArm arm(clientOf(sim, 125));
   EXPECT_EQ(arm.controllerVersion(), "5.8.0.0");
   EXPECT_DOUBLE_EQ(arm.controlPeriodS(), 0.008);
@@ -62,7 +58,7 @@ TEST(UrRtdeArm, StateMirrorsTheSimulator) {
 }
 
 TEST(UrRtdeArm, ServoJMovesTheSimulatedArm) {
-  UrSimulator sim(ephemeral());
+  UrSimulator sim(ephemeralUrSimulator());
   UrRtdeArm arm(clientOf(sim));
   ASSERT_TRUE(waitFor([&] { return arm.state().connected; }, 3));
   Joints target = arm.state().q;
@@ -85,7 +81,7 @@ TEST(UrRtdeArm, ServoJMovesTheSimulatedArm) {
 }
 
 TEST(UrRtdeArm, StopJBringsTheArmToRest) {
-  UrSimulator sim(ephemeral());
+  UrSimulator sim(ephemeralUrSimulator());
   UrRtdeArm arm(clientOf(sim));
   ASSERT_TRUE(waitFor([&] { return arm.state().connected; }, 3));
   Twist v = Twist::Zero();
@@ -98,7 +94,7 @@ TEST(UrRtdeArm, StopJBringsTheArmToRest) {
 }
 
 TEST(UrRtdeArm, ProtectiveStopNeedsDashboardUnlock) {
-  UrSimulator sim(ephemeral());
+  UrSimulator sim(ephemeralUrSimulator());
   UrRtdeArm arm(clientOf(sim));
   ASSERT_TRUE(waitFor([&] { return arm.state().connected; }, 3));
   ASSERT_TRUE(arm.protectiveStop());
@@ -112,7 +108,7 @@ TEST(UrRtdeArm, ProtectiveStopNeedsDashboardUnlock) {
 }
 
 TEST(UrRtdeArm, UnlockRefusedWithinFiveSecondsOfTheStop) {
-  UrSimulator sim(ephemeral(5.0));
+  UrSimulator sim(ephemeralUrSimulator(5.0));
   UrRtdeArm arm(clientOf(sim));
   ASSERT_TRUE(waitFor([&] { return arm.state().connected; }, 3));
   ASSERT_TRUE(arm.protectiveStop());
@@ -122,7 +118,7 @@ TEST(UrRtdeArm, UnlockRefusedWithinFiveSecondsOfTheStop) {
 }
 
 TEST(UrRtdeArm, DroppedConnectionIsDetectedWithoutThrowing) {
-  UrSimulator sim(ephemeral());
+  UrSimulator sim(ephemeralUrSimulator());
   UrRtdeArm arm(clientOf(sim));
   ASSERT_TRUE(waitFor([&] { return arm.state().connected; }, 3));
   sim.dropClients();
@@ -133,7 +129,7 @@ TEST(UrRtdeArm, DroppedConnectionIsDetectedWithoutThrowing) {
 }
 
 TEST(UrRtdeArm, SilentControllerIsDetectedFromStaleness) {
-  UrSimulator sim(ephemeral());
+  UrSimulator sim(ephemeralUrSimulator());
   auto options = clientOf(sim);
   options.stale_after_periods = 1.5;  // the default: one missing package (plus half a period) is a loss
   UrRtdeArm arm(options);
@@ -149,7 +145,7 @@ TEST(UrRtdeArm, SilentControllerIsDetectedFromStaleness) {
 }
 
 TEST(UrRtdeArm, SimulatorShutdownIsDetected) {
-  auto sim = std::make_unique<UrSimulator>(ephemeral());
+  auto sim = std::make_unique<UrSimulator>(ephemeralUrSimulator());
   UrRtdeArm arm(clientOf(*sim));
   ASSERT_TRUE(waitFor([&] { return arm.state().connected; }, 3));
   sim.reset();
@@ -160,7 +156,7 @@ TEST(UrRtdeArm, SimulatorShutdownIsDetected) {
 TEST(UrRtdeArm, NoControllerIsAClearNetworkError) {
   std::uint16_t port = 0;
   {
-    UrSimulator sim(ephemeral());
+    UrSimulator sim(ephemeralUrSimulator());
     port = sim.rtdePort();
   }
   UrRtdeArmOptions o;
@@ -172,7 +168,7 @@ TEST(UrRtdeArm, NoControllerIsAClearNetworkError) {
 }
 
 TEST(UrRtdeArm, InjectedFaultsReachTheClient) {
-  UrSimulator sim(ephemeral());
+  UrSimulator sim(ephemeralUrSimulator());
   UrRtdeArm arm(clientOf(sim));
   ASSERT_TRUE(waitFor([&] { return arm.state().connected; }, 3));
   // A protective stop raised by the controller itself at a known cycle: the client sees it, stamped no earlier.

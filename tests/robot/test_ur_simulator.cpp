@@ -20,18 +20,14 @@
 #include "mrsns/robot/rtde_protocol.h"
 #include "mrsns/robot/ur_simulator.h"
 #include "mrsns/robot/urscript.h"
+#include "ur_simulator_ports.h"
 
 using namespace mrsns::robot;
 using Bytes = std::vector<std::uint8_t>;
 
 namespace {
 
-UrSimulatorOptions ephemeral() {
-  UrSimulatorOptions o;
-  o.rtde_port = o.dashboard_port = o.secondary_port = o.realtime_port = 0;
-  o.unlock_delay_s = 0;
-  return o;
-}
+using ::mrsns::test::ephemeralUrSimulator;
 
 // A plain blocking socket with a receive timeout: a client independent of the code under test.
 class RawClient {
@@ -100,7 +96,7 @@ std::vector<std::string> listeningAddresses(std::uint16_t port) {
 // client connects) must not end the listening: once descriptors are free
 // again, the next client is served.
 TEST(UrSimulator, KeepsAcceptingAfterAFailedAccept) {
-  UrSimulator sim(ephemeral());
+  UrSimulator sim(ephemeralUrSimulator());
   const std::uint16_t port = sim.dashboardPort();
   rlimit original{};
   ASSERT_EQ(::getrlimit(RLIMIT_NOFILE, &original), 0);
@@ -132,23 +128,23 @@ TEST(UrSimulator, KeepsAcceptingAfterAFailedAccept) {
 }  // namespace
 
 TEST(UrSimulator, BindsLoopbackOnly) {
-  UrSimulator sim(ephemeral());
+  UrSimulator sim(ephemeralUrSimulator());
   for (auto port : {sim.rtdePort(), sim.dashboardPort(), sim.secondaryPort(), sim.realtimePort()}) {
     EXPECT_NE(port, 0);
     EXPECT_EQ(listeningAddresses(port), std::vector<std::string>{"0100007F"}) << "port " << port;
   }
   EXPECT_EQ(sim.host(), "127.0.0.1");
   // A port already taken and a host that is not an address are clear errors.
-  auto taken = ephemeral();
+  auto taken = ephemeralUrSimulator();
   taken.dashboard_port = sim.dashboardPort();
   EXPECT_THROW(UrSimulator{taken}, mrsns::NetworkError);
-  auto bad = ephemeral();
+  auto bad = ephemeralUrSimulator();
   bad.host = "localhost:80";
   EXPECT_THROW(UrSimulator{bad}, mrsns::InvalidArgumentError);
 }
 
 TEST(UrSimulator, RtdeNegotiationAndDataRate) {
-  UrSimulator sim(ephemeral());
+  UrSimulator sim(ephemeralUrSimulator());
   RawClient c(sim.rtdePort());
   c.send(rtde::encodeRequestProtocolVersion(1));
   EXPECT_FALSE(rtde::decodeAccepted(c.rtdePackage(), rtde::PackageType::RequestProtocolVersion));
@@ -193,7 +189,7 @@ TEST(UrSimulator, RtdeNegotiationAndDataRate) {
 // ur_rtde's RTDEReceiveInterface asks for its 57 default outputs at 500 Hz with a trailing comma after the last
 // name (seen on the wire from ur_rtde 1.6.5): the controller sets the recipe up and streams it.
 TEST(UrSimulator, RtdeSetupWithTrailingCommaAsUrRtdeSendsIt) {
-  UrSimulator sim(ephemeral());
+  UrSimulator sim(ephemeralUrSimulator());
   RawClient c(sim.rtdePort());
   c.send(rtde::encodeRequestProtocolVersion(2));
   ASSERT_TRUE(rtde::decodeAccepted(c.rtdePackage(), rtde::PackageType::RequestProtocolVersion));
@@ -218,7 +214,7 @@ TEST(UrSimulator, RtdeSetupWithTrailingCommaAsUrRtdeSendsIt) {
 }
 
 TEST(UrSimulator, RtdeInputsAreExclusivePerClient) {
-  UrSimulator sim(ephemeral());
+  UrSimulator sim(ephemeralUrSimulator());
   RawClient a(sim.rtdePort()), b(sim.rtdePort());
   for (auto* c : {&a, &b}) {
     c->send(rtde::encodeRequestProtocolVersion(2));
@@ -238,7 +234,7 @@ TEST(UrSimulator, RtdeInputsAreExclusivePerClient) {
 }
 
 TEST(UrSimulator, DashboardGoldenRepliesOnTheWire) {
-  UrSimulator sim(ephemeral());
+  UrSimulator sim(ephemeralUrSimulator());
   RawClient c(sim.dashboardPort());
   auto line = [&c]() {
     std::string s;
@@ -278,7 +274,7 @@ TEST(UrSimulator, DashboardGoldenRepliesOnTheWire) {
 // getSerialNumber parse "URSoftware major.minor.bugfix.build" and throw on three numbers; labs check remote
 // control before starting RTDEControlInterface), replied as a real controller does.
 TEST(UrSimulator, DashboardQueriesOfClientLibraries) {
-  UrSimulatorOptions options = ephemeral();
+  UrSimulatorOptions options = ephemeralUrSimulator();
   options.version = {5, 11, 2, 108};
   options.serial_number = "20235500042";
   UrSimulator sim(options);
@@ -313,7 +309,7 @@ TEST(UrSimulator, DashboardQueriesOfClientLibraries) {
 }
 
 TEST(UrSimulator, ScriptLinesMoveTheArmAndSecondaryStreamsState) {
-  UrSimulator sim(ephemeral());
+  UrSimulator sim(ephemeralUrSimulator());
   RawClient secondary(sim.secondaryPort());
   const auto version = primary::decodeMessage(secondary.primaryMessage());
   EXPECT_EQ(std::get<primary::VersionMessage>(version.message).project_name, "URControl");
@@ -350,7 +346,7 @@ TEST(UrSimulator, ScriptLinesMoveTheArmAndSecondaryStreamsState) {
 }
 
 TEST(UrSimulator, DashboardClientAgainstSimulator) {
-  UrSimulator sim(ephemeral());
+  UrSimulator sim(ephemeralUrSimulator());
   DashboardClient client({"127.0.0.1", sim.dashboardPort(), 2.0});
   EXPECT_EQ(client.robotMode(), UrRobotMode::Running);
   EXPECT_EQ(client.safetyMode(), UrSafetyMode::Normal);

@@ -10,16 +10,16 @@
 #include "mrsns/io/device_set.h"
 #include "mrsns/simulation/bmode_renderer.h"
 
-namespace mrsns::simulation::test {
+namespace mrsns::test {
 
 /// The phantom's wires (phantom frame = scene frame) in a bath that holds the
 /// whole phantom and every image plane of the sweep.
-inline EchoScene nwireScene(const io::PhantomDefinition& phantom) {
-  EchoScene scene;
+inline simulation::EchoScene nwireScene(const io::PhantomDefinition& phantom) {
+  simulation::EchoScene scene;
   for (const auto& pattern : phantom.patterns) {
     for (const auto& wire : pattern.wires) scene.wires.push_back({wire.end_point_front, wire.end_point_back, 0.25});
   }
-  EchoBox bath;
+  simulation::EchoBox bath;
   bath.scene_T_box.translation() = Eigen::Vector3d(35.0, 20.0, 10.0);
   bath.half_extent_mm = Eigen::Vector3d(120.0, 120.0, 120.0);
   scene.water_bath = bath;
@@ -53,4 +53,4 @@ inline auto plateDistance(double depth_mm, double edge_x_mm) {
   return [depth_mm, edge_x_mm](const Eigen::Vector3d& p) { return std::max(depth_mm - p.y(), p.x() - edge_x_mm); };
 }
 
-}  // namespace mrsns::simulation::test
+}  // namespace mrsns::test

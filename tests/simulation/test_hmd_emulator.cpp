@@ -16,6 +16,7 @@
 #include "mrsns/core/error.h"
 #include "mrsns/core/rigid.h"
 #include "mrsns/core/transform_repository.h"
+#include "mrsns/core/wall_clock.h"
 #include "mrsns/igtlink/server.h"
 #include "mrsns/simulation/hmd_emulator.h"
 #include "mrsns/tracking/hologram_streamer.h"
@@ -30,10 +31,6 @@ bool waitUntil(const std::function<bool()>& done, double timeout_s = 5.0) {
     std::this_thread::sleep_for(std::chrono::milliseconds(1));
   }
   return done();
-}
-
-double utcNow() {
-  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
 }
 
 TriangleMesh tetrahedron() {
@@ -194,7 +191,7 @@ TEST_P(HmdEmulatorVersions, DisplaysEveryModelAtTheRepositoryPoseWithinFloat32) 
   double worst_ulps = 0.0;
   constexpr int kSteps = 30;
   for (int step = 0; step < kSteps; ++step) {
-    const double t = utcNow();
+    const double t = unixTimeSeconds();
     ws.track(t, step);
     ASSERT_TRUE(waitUntil([&] {
       return updatesOf(hmd, "C5") == static_cast<std::uint64_t>(step + 1) &&
@@ -242,11 +239,11 @@ TEST(HmdEmulator, HidesAModelWhoseChainIsLostOrMissingAndShowsItAgain) {
   HmdEmulator hmd(emulatorOptions(ws.server->port()));
   hmd.start();
   ASSERT_TRUE(waitUntil([&] { return hmd.stats().meshes == 2 && ws.streamer->readyClients() == 1; }));
-  ws.track(utcNow(), 0);
+  ws.track(unixTimeSeconds(), 0);
   ASSERT_TRUE(waitUntil([&] { return updatesOf(hmd, "C5") == 1 && updatesOf(hmd, "Probe") == 1; }));
 
   // The probe's marker is occluded: the probe is hidden, the vertebra still follows.
-  ws.track(utcNow(), 1, /*probe_ok=*/false);
+  ws.track(unixTimeSeconds(), 1, /*probe_ok=*/false);
   ASSERT_TRUE(waitUntil([&] { return hmd.stats().statuses == 1 && updatesOf(hmd, "C5") == 2; }));
   auto probe = find(hmd, "Probe");
   ASSERT_TRUE(probe);
@@ -256,13 +253,13 @@ TEST(HmdEmulator, HidesAModelWhoseChainIsLostOrMissingAndShowsItAgain) {
   EXPECT_TRUE(find(hmd, "C5")->visible);
 
   // Still lost on the next samples: no pose, no repeated status.
-  ws.track(utcNow(), 2, false);
+  ws.track(unixTimeSeconds(), 2, false);
   ASSERT_TRUE(waitUntil([&] { return updatesOf(hmd, "C5") == 3; }));
   EXPECT_FALSE(find(hmd, "Probe")->visible);
   EXPECT_EQ(hmd.stats().statuses, 1U);
 
   // Seen again: status Ok then the new pose.
-  ws.track(utcNow(), 3);
+  ws.track(unixTimeSeconds(), 3);
   ASSERT_TRUE(waitUntil([&] { return updatesOf(hmd, "Probe") == 2; }));
   probe = find(hmd, "Probe");
   EXPECT_TRUE(probe->visible);
@@ -271,7 +268,7 @@ TEST(HmdEmulator, HidesAModelWhoseChainIsLostOrMissingAndShowsItAgain) {
 
   // The headset's own marker is never reported again (the edge is gone): both hidden.
   ws.repository->removeTransform("Hologram", "Tracker");
-  ws.streamer->update(utcNow());
+  ws.streamer->update(unixTimeSeconds());
   ASSERT_TRUE(waitUntil([&] { return hmd.stats().statuses == 4; }));  // Probe Ok, then both lost
   for (const char* name : {"C5", "Probe"}) {
     EXPECT_FALSE(find(hmd, name)->visible) << name;
@@ -286,7 +283,7 @@ TEST(HmdEmulator, ReconnectsAfterTheWorkstationRestartsAndGetsTheModelsAgain) {
   HmdEmulator hmd(emulatorOptions(port));
   hmd.start();
   ASSERT_TRUE(waitUntil([&] { return hmd.stats().meshes == 2 && first->streamer->readyClients() == 1; }));
-  first->track(utcNow(), 0);
+  first->track(unixTimeSeconds(), 0);
   ASSERT_TRUE(waitUntil([&] { return updatesOf(hmd, "C5") == 1 && updatesOf(hmd, "Probe") == 1; }));
 
   first.reset();  // the workstation goes away
@@ -299,10 +296,10 @@ TEST(HmdEmulator, ReconnectsAfterTheWorkstationRestartsAndGetsTheModelsAgain) {
   // It comes back on the same port with the probe occluded: the new client
   // gets both meshes, the probe's lost status, then the vertebra's pose.
   Workstation second({}, port);
-  second.track(utcNow(), 5, /*probe_ok=*/false);
+  second.track(unixTimeSeconds(), 5, /*probe_ok=*/false);
   ASSERT_TRUE(waitUntil([&] { return hmd.stats().connects == 2 && second.streamer->readyClients() == 1; }, 10.0));
   ASSERT_TRUE(waitUntil([&] { return hmd.stats().meshes == 4 && hmd.stats().statuses >= 1; }));
-  second.track(utcNow(), 6, false);
+  second.track(unixTimeSeconds(), 6, false);
   ASSERT_TRUE(waitUntil([&] { return updatesOf(hmd, "C5") >= 2; }));
   const auto c5 = find(hmd, "C5");
   EXPECT_TRUE(c5->visible);
@@ -328,7 +325,7 @@ TEST(HmdEmulator, UnityStreamIsConvertedBackToTheSamePoseInMillimetres) {
   ASSERT_TRUE(waitUntil([&] { return hmd.stats().meshes == 2 && misconfigured.stats().meshes == 2; }));
   double worst_mm = 0.0;
   for (int step = 0; step < 10; ++step) {
-    ws.track(utcNow(), step);
+    ws.track(unixTimeSeconds(), step);
     ASSERT_TRUE(waitUntil([&] {
       return updatesOf(hmd, "Probe") == static_cast<std::uint64_t>(step + 1) &&
              updatesOf(misconfigured, "Probe") == static_cast<std::uint64_t>(step + 1);
@@ -420,7 +417,7 @@ TEST(HmdEmulator, DisplaysEachPoseInItsOwnDriftingWorldFrame) {
   double worst_composition = 0.0;
   std::int64_t last_frame = -1;
   for (int step = 0; step < 400 && offsets.size() < 120; ++step) {
-    ws.track(utcNow(), step);
+    ws.track(unixTimeSeconds(), step);
     ASSERT_TRUE(waitUntil([&] { return updatesOf(hmd, "C5") == static_cast<std::uint64_t>(step + 1); }));
     const auto c5 = *find(hmd, "C5");
     // Exactly the headset's frame at display time times the received pose.
@@ -458,7 +455,7 @@ TEST(HmdEmulator, DisplaysEachPoseInItsOwnDriftingWorldFrame) {
 
 TEST(HmdEmulator, ConfirmationReachesTheStreamAsAStringAndChangesNothing) {
   Workstation ws;
-  ws.track(utcNow(), 0);
+  ws.track(unixTimeSeconds(), 0);
   HmdEmulator hmd(emulatorOptions(ws.server->port()));
   hmd.start();
   ASSERT_TRUE(waitUntil([&] { return hmd.stats().meshes == 2 && ws.streamer->readyClients() == 1; }));
@@ -538,7 +535,7 @@ TEST(HmdEmulator, KeepsPromptsAnswersInTheStreamsVersionAndCountsWhatItCannotSho
     EXPECT_EQ(m.header.device_name, "Confirm");
     EXPECT_EQ(m.header.version, i == 0 ? 1 : 2);
     ASSERT_NE(m.as<igtlink::StringContent>(), nullptr);
-    EXPECT_GT(m.header.timestampSeconds(), utcNow() - 60.0);
+    EXPECT_GT(m.header.timestampSeconds(), unixTimeSeconds() - 60.0);
   }
   EXPECT_EQ(received[0].as<igtlink::StringContent>()->text, "ready");
   EXPECT_EQ(received[1].as<igtlink::StringContent>()->text, "cube-aligned");

@@ -8,6 +8,7 @@
 
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <string>
 
 #include "mrsns/core/data_dir.h"
@@ -32,6 +33,12 @@ inline std::filesystem::path scratchDirectory(const std::string& name) {
 
 /// True under CI (environment variable CI=true or 1, as .ci/run and most CI
 /// services set it): missing shared data is then a failure, not a skip.
+/// Writes `bytes` to `path` as they are (corrupt-file and header tests).
+inline void writeBytes(const std::filesystem::path& path, const std::string& bytes) {
+  std::ofstream out(path, std::ios::binary);
+  out << bytes;
+}
+
 inline bool missingDataFails() {
   const char* ci = std::getenv("CI");
   return ci != nullptr && (std::string(ci) == "true" || std::string(ci) == "1");

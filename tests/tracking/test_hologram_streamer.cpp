@@ -18,6 +18,7 @@
 namespace mrsns::tracking {
 namespace {
 
+using test::loopback;
 using test::waitFor;
 
 Eigen::Isometry3d randomPose(int seed) {
@@ -41,12 +42,6 @@ struct Scene {
   }
   [[nodiscard]] Eigen::Isometry3d hol_T_vir() const { return tra_T_hol.inverse() * tra_T_pat * pat_T_pre * pre_T_vir; }
 };
-
-igtlink::ServerOptions loopback() {
-  igtlink::ServerOptions options;
-  options.port = 0;
-  return options;
-}
 
 HologramStreamOptions streamOptions(igtlink::HeaderVersion version, bool unity = false,
                                     std::vector<std::string> forward = {}) {

@@ -12,13 +12,8 @@
 namespace mrsns::tracking {
 namespace {
 
+using test::loopback;
 using test::waitFor;
-
-igtlink::ServerOptions loopback() {
-  igtlink::ServerOptions options;
-  options.port = 0;
-  return options;
-}
 
 Eigen::Isometry3d pose(double x, double angle = 0.3) {
   Eigen::Isometry3d p = Eigen::Isometry3d::Identity();

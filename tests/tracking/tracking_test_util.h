@@ -10,11 +10,19 @@
 
 #include "mrsns/core/mesh.h"
 #include "mrsns/igtlink/client.h"
+#include "mrsns/igtlink/server.h"
 #include "net_test_util.h"
 
 namespace mrsns::tracking::test {
 
 using igtlink::test::waitFor;
+
+/// A server on 127.0.0.1 at a port the system picks.
+inline igtlink::ServerOptions loopback() {
+  igtlink::ServerOptions options;
+  options.port = 0;
+  return options;
+}
 
 /// A closed tetrahedron (outward normals by right-hand winding), 10 mm edges.
 inline TriangleMesh tetrahedron(double offset = 0.0) {

@@ -7,7 +7,7 @@
 
 #include "mrsns/io/device_set.h"
 
-namespace mrsns::ultrasound::test {
+namespace mrsns::test {
 
 inline io::PhantomDefinition fcalPhantom() {
   io::PhantomDefinition p;
@@ -42,4 +42,4 @@ inline Eigen::Isometry3d nominalPlane(double y_mm) {
   return t;
 }
 
-}  // namespace mrsns::ultrasound::test
+}  // namespace mrsns::test

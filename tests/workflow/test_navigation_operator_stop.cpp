@@ -16,20 +16,14 @@
 #include "mrsns/io/sequence_file.h"
 #include "mrsns/workflow/navigation.h"
 #include "test_data.h"
+#include "wait_for.h"
 
 namespace mrsns::workflow {
 namespace {
 
-using namespace std::chrono_literals;
+using ::mrsns::test::waitFor;
 
-bool waitFor(const std::function<bool()>& done, std::chrono::milliseconds deadline) {
-  const auto end = std::chrono::steady_clock::now() + deadline;
-  while (std::chrono::steady_clock::now() < end) {
-    if (done()) return true;
-    std::this_thread::sleep_for(5ms);
-  }
-  return done();
-}
+using namespace std::chrono_literals;
 
 NavigationOptions robotOptions() {
   NavigationOptions o;

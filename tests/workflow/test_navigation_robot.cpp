@@ -13,9 +13,15 @@
 #include "mrsns/io/sequence_file.h"
 #include "mrsns/workflow/navigation.h"
 #include "test_data.h"
+#include "navigation_test_log.h"
+#include "wait_for.h"
 
 namespace mrsns::workflow {
 namespace {
+
+using ::mrsns::test::describe;
+using ::mrsns::test::firstStop;
+using ::mrsns::test::waitFor;
 
 using namespace std::chrono_literals;
 
@@ -32,31 +38,6 @@ NavigationOptions robotOptions(const std::filesystem::path& recording) {
   // these tests script other losses (staleness: test_navigation_robot_silence.cpp).
   o.silence_timeout_s = 1.0;
   return o;
-}
-
-bool waitFor(const std::function<bool()>& done, std::chrono::milliseconds deadline) {
-  const auto end = std::chrono::steady_clock::now() + deadline;
-  while (std::chrono::steady_clock::now() < end) {
-    if (done()) return true;
-    std::this_thread::sleep_for(5ms);
-  }
-  return done();
-}
-
-const NavigationRobotTransition* firstStop(const std::vector<NavigationRobotTransition>& log) {
-  for (const auto& t : log) {
-    if (t.to == "Stopped" || t.to == "Fault") return &t;
-  }
-  return nullptr;
-}
-
-std::string describe(const std::vector<NavigationRobotTransition>& log) {
-  std::string s;
-  for (const auto& t : log) {
-    s += "\n  cycle " + std::to_string(t.cycle) + " t=" + std::to_string(t.time_s) + " " + t.from + " -> " + t.to +
-         " (" + t.reason + ": " + t.detail + ") " + t.tracking;
-  }
-  return s;
 }
 
 // After a stop: the arm comes to rest within its stopping-time limit, stays at rest, and no motion command

@@ -9,17 +9,14 @@
 #include "mrsns/igtlink/client.h"
 #include "mrsns/igtlink/string_message.h"
 #include "mrsns/workflow/navigation.h"
+#include "wait_for.h"
 
 namespace mrsns::workflow {
 namespace {
 
-using namespace std::chrono_literals;
+using ::mrsns::test::waitFor;
 
-bool waitFor(const std::function<bool()>& done, std::chrono::milliseconds deadline) {
-  const auto end = std::chrono::steady_clock::now() + deadline;
-  while (!done() && std::chrono::steady_clock::now() < end) std::this_thread::sleep_for(5ms);
-  return done();
-}
+using namespace std::chrono_literals;
 
 TEST(NavigationRobotHologramClients, ClientMessagesNeitherMoveNorStopTheRobot) {
   NavigationOptions o;

@@ -9,6 +9,7 @@
 
 #include "mrsns/igtlink/server.h"
 #include "mrsns/workflow/navigation.h"
+#include "mrsns/core/wall_clock.h"
 
 namespace mrsns::workflow {
 namespace {
@@ -19,10 +20,6 @@ igtlink::Message plusTransform(const std::string& name, const Eigen::Isometry3d&
   auto m = igtlink::makeMessage(name, igtlink::TransformContent::fromIsometry(pose), t);
   m.metadata.push_back({"TransformStatus", igtlink::kEncodingUsAscii, "OK"});
   return m;
-}
-
-double utcNow() {
-  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
 }
 
 TEST(NavigationRobotSilence, ASilentButConnectedTrackerStopsTheArmAsATrackingLoss) {
@@ -38,7 +35,7 @@ TEST(NavigationRobotSilence, ASilentButConnectedTrackerStopsTheArmAsATrackingLos
     probe.translation() << 40, 0, -990;
     while (!quit) {
       if (streaming) {
-        const double t = utcNow();
+        const double t = unixTimeSeconds();
         server.broadcast(plusTransform("PatientToTracker", patient, t), igtlink::HeaderVersion::kV2,
                          igtlink::Channel::Stream);
         server.broadcast(plusTransform("ProbeToTracker", probe, t), igtlink::HeaderVersion::kV2,

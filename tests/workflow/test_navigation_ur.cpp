@@ -18,43 +18,20 @@
 #include "mrsns/workflow/navigation.h"
 #include "mrsns/workflow/steps.h"
 #include "test_data.h"
+#include "navigation_test_log.h"
+#include "wait_for.h"
+#include "ur_simulator_ports.h"
 
 namespace mrsns::workflow {
 namespace {
 
+using ::mrsns::test::ephemeralUrSimulator;
+
+using ::mrsns::test::describe;
+using ::mrsns::test::firstStop;
+using ::mrsns::test::waitFor;
+
 using namespace std::chrono_literals;
-
-robot::UrSimulatorOptions ephemeral() {
-  robot::UrSimulatorOptions o;
-  o.rtde_port = o.dashboard_port = o.secondary_port = o.realtime_port = 0;
-  o.unlock_delay_s = 0;
-  return o;
-}
-
-bool waitFor(const std::function<bool()>& done, std::chrono::milliseconds deadline) {
-  const auto end = std::chrono::steady_clock::now() + deadline;
-  while (std::chrono::steady_clock::now() < end) {
-    if (done()) return true;
-    std::this_thread::sleep_for(5ms);
-  }
-  return done();
-}
-
-std::string describe(const std::vector<NavigationRobotTransition>& log) {
-  std::string s;
-  for (const auto& t : log) {
-    s += "\n  cycle " + std::to_string(t.cycle) + " t=" + std::to_string(t.time_s) + " " + t.from + " -> " + t.to +
-         " (" + t.reason + ": " + t.detail + ") " + t.tracking;
-  }
-  return s;
-}
-
-const NavigationRobotTransition* firstStop(const std::vector<NavigationRobotTransition>& log) {
-  for (const auto& t : log) {
-    if (t.to == "Stopped" || t.to == "Fault") return &t;
-  }
-  return nullptr;
-}
 
 // One patient-reference pose from the simulated tracker: the "robot calibration" below places the base so the
 // plan in front of that patient is within the arm's reach.
@@ -109,7 +86,7 @@ double jointTravel(const robot::ArmState& a, const robot::ArmState& b) {
 }
 
 TEST(NavigationUr, WithoutALossTheUrArmFollowsThePlan) {
-  robot::UrSimulator sim(ephemeral());
+  robot::UrSimulator sim(ephemeralUrSimulator());
   const auto q0 = sim.armState();
   NavigationLoop loop(urOptions(sim, {}));
   EXPECT_EQ(loop.status().robot, "ur");
@@ -144,7 +121,7 @@ struct LossFigures {
 // reaches the controller after it is at rest, the recording holds every batch.
 LossFigures patientLoss(const std::filesystem::path& recording, double loss_s = 2.2) {
   LossFigures figures;
-  robot::UrSimulator sim(ephemeral());
+  robot::UrSimulator sim(ephemeralUrSimulator());
   auto o = urOptions(sim, recording);
   o.devices.dropout_tool = "PatientToTracker";
   o.devices.dropout_start_s = loss_s;
@@ -248,7 +225,7 @@ TEST(NavigationUr, StopLatencyOverRepeatedLosses) {
 // The navigation step with robot=ur: ur_host and the ports as step parameters, the base from the session's
 // robot calibration (here the cart placement that puts the default plan within the simulator arm's reach).
 TEST(NavigationUr, TheNavigationStepDrivesTheControllerFromTheSessionsRobotCalibration) {
-  robot::UrSimulator sim(ephemeral());
+  robot::UrSimulator sim(ephemeralUrSimulator());
   auto session = Session::create(test::scratchDirectory("navur_step") / "session");
   const Eigen::Isometry3d tracker_T_base =
       simulatedDocking(NavigationRobotOptions{}, simulatedPatientPose(DeviceOptions{}), sim.armState().base_T_flange);
@@ -298,7 +275,7 @@ TEST(NavigationUr, TheNavigationStepDrivesTheControllerFromTheSessionsRobotCalib
 // After a tracking stop the same acknowledge path as with the simulated arm: accepted once the patient is back
 // (Ready), and a new placement moves the controller's arm again.
 TEST(NavigationUr, RearmAfterATrackingStopAndStartAgainMovesTheControllersArm) {
-  robot::UrSimulator sim(ephemeral());
+  robot::UrSimulator sim(ephemeralUrSimulator());
   auto o = urOptions(sim, {});
   o.devices.dropout_tool = "PatientToTracker";
   o.devices.dropout_start_s = 2.2;
@@ -322,7 +299,7 @@ TEST(NavigationUr, RearmAfterATrackingStopAndStartAgainMovesTheControllersArm) {
 }
 
 TEST(NavigationUr, ControllerShutDownMidRunIsASupervisorStopAndRecordingGoesOn) {
-  auto sim = std::make_unique<robot::UrSimulator>(ephemeral());
+  auto sim = std::make_unique<robot::UrSimulator>(ephemeralUrSimulator());
   const auto path = test::scratchDirectory("navur") / "shutdown.mhd";
   NavigationLoop loop(urOptions(*sim, path));
   loop.start();
@@ -364,7 +341,7 @@ TEST(NavigationUr, ControllerShutDownMidRunIsASupervisorStopAndRecordingGoesOn) 
 TEST(NavigationUr, NobodyListeningIsAClearNetworkErrorBeforeAnyThreadStarts) {
   std::uint16_t free_port = 0;
   {
-    robot::UrSimulator probe(ephemeral());  // a port that was free a moment ago and is closed now
+    robot::UrSimulator probe(ephemeralUrSimulator());  // a port that was free a moment ago and is closed now
     free_port = probe.rtdePort();
   }
   NavigationOptions o;

@@ -13,15 +13,12 @@
 #include "mrsns/io/sequence_file.h"
 #include "mrsns/workflow/navigation.h"
 #include "test_data.h"
+#include "mrsns/core/wall_clock.h"
 
 namespace mrsns::workflow {
 namespace {
 
 using namespace std::chrono_literals;
-
-double utcNow() {
-  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
-}
 
 igtlink::Message bmode(int index, std::uint16_t width, std::uint16_t height, double t) {
   igtlink::ImageContent image;
@@ -57,7 +54,7 @@ TEST(NavigationVideo, EveryImageThePlusServerSendsIsRecordedBesideTheTracking) {
   std::vector<double> sent_times;
   Eigen::Isometry3d probe = Eigen::Isometry3d::Identity();
   for (int i = 0; i < 3 * kImages; ++i) {
-    const double t = utcNow();
+    const double t = unixTimeSeconds();
     probe.translation() << 40.0 + 0.1 * i, 0, -990;
     server.broadcast(igtlink::makeMessage("ProbeToTracker", igtlink::TransformContent::fromIsometry(probe), t),
                      igtlink::HeaderVersion::kV1, igtlink::Channel::Reliable);
@@ -68,7 +65,7 @@ TEST(NavigationVideo, EveryImageThePlusServerSendsIsRecordedBesideTheTracking) {
     std::this_thread::sleep_for(16ms);
   }
   // A frame of another size (the user changed the depth): not recorded, navigation goes on.
-  server.broadcast(bmode(99, 32, 48, utcNow()), igtlink::HeaderVersion::kV1, igtlink::Channel::Reliable);
+  server.broadcast(bmode(99, 32, 48, unixTimeSeconds()), igtlink::HeaderVersion::kV1, igtlink::Channel::Reliable);
   ASSERT_TRUE(wait([&] { return loop.status().video_frames_dropped == 1; }, 5000ms)) << loop.status().video_error;
   EXPECT_TRUE(loop.status().running);
   loop.stop();

@@ -4,6 +4,7 @@
 #include <sstream>
 
 #include "cli_context.h"
+#include "json_vectors.h"
 #include "mrsns/io/transform_io.h"
 #include "mrsns/registration/pivot_calibration.h"
 #include "mrsns/registration/spin_calibration.h"
@@ -13,10 +14,6 @@ namespace mrsns::cli {
 namespace {
 
 constexpr double kDegPerRad = 180.0 / 3.14159265358979323846;
-
-Json vectorJson(const Eigen::Vector3d& v) {
-  return Json::array({v.x(), v.y(), v.z()});
-}
 
 struct PivotVerbOptions {
   PoseSourceOptions source;

@@ -3,6 +3,7 @@
 #include <sstream>
 
 #include "cli_context.h"
+#include "json_vectors.h"
 #include "mrsns/io/landmarks_io.h"
 #include "mrsns/io/mesh_io.h"
 #include "mrsns/registration/fiducials_from_mesh.h"
@@ -17,10 +18,6 @@ struct FindFiducialsOptions {
   std::string output;
   std::uint64_t seed = registration::KMeansOptions{}.seed;
 };
-
-Json vectorJson(const Eigen::Vector3d& v) {
-  return Json::array({v.x(), v.y(), v.z()});
-}
 
 Report run(const FindFiducialsOptions& options) {
   const auto screws = io::readMesh(options.screws);

@@ -3,6 +3,7 @@
 #include <sstream>
 
 #include "cli_context.h"
+#include "json_vectors.h"
 #include "mrsns/core/mesh_locator.h"
 #include "mrsns/io/mesh_io.h"
 #include "mrsns/io/screw_path_io.h"
@@ -16,10 +17,6 @@ struct PlanCheckOptions {
   std::string surface;
   double step_mm = 1.0;
 };
-
-Json vectorJson(const Eigen::Vector3d& v) {
-  return Json::array({v.x(), v.y(), v.z()});
-}
 
 Report run(const PlanCheckOptions& options) {
   const auto lines = io::readMarkupsLines(options.paths);

@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include "cli_context.h"
+#include "json_vectors.h"
 #include "mrsns/core/error.h"
 #include "mrsns/io/landmarks_io.h"
 #include "mrsns/io/transform_io.h"
@@ -76,10 +77,6 @@ std::vector<std::pair<std::size_t, std::size_t>> pairPoints(const LandmarkSet& f
   for (std::size_t i = 0; i < fixed.points.size(); ++i) pairs.emplace_back(i, i);
   used = "order";
   return pairs;
-}
-
-Json vectorJson(const Eigen::Vector3d& v) {
-  return Json::array({v.x(), v.y(), v.z()});
 }
 
 Report run(const RegisterPointsOptions& options) {

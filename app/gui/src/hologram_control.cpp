@@ -14,6 +14,7 @@
 #include "message_presenter.h"
 #include "mrsns/core/error.h"
 #include "mrsns/core/transform_repository.h"
+#include "mrsns/core/wall_clock.h"
 #include "mrsns/igtlink/server.h"
 #include "mrsns/tracking/hologram_streamer.h"
 
@@ -32,10 +33,6 @@ std::string deviceName(const std::string& scene_name, std::set<std::string>& use
   }
   used.insert(name);
   return name;
-}
-
-double nowSeconds() {
-  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
 }
 
 }  // namespace
@@ -103,7 +100,7 @@ bool MainWindow::startWindowStream(int port) {
   port = stream_server_->port();
   connect(timer, &QTimer::timeout, this, [this, port] {
     if (!streamer_) return;
-    streamer_->update(nowSeconds());
+    streamer_->update(unixTimeSeconds());
     function_->setStreaming(true, tr("serving %1 clients on 127.0.0.1:%2").arg(streamer_->readyClients()).arg(port));
   });
   timer->start(33);

@@ -9,13 +9,12 @@
 #include "mrsns/core/log.h"
 #include "mrsns/core/rigid.h"
 #include "mrsns/core/surface_distance.h"
+#include "mrsns/core/units.h"
 #include "mrsns/deformation/model_building.h"
 #include "mrsns/deformation/shape_model_ops.h"
 
 namespace mrsns::deformation {
 namespace {
-
-constexpr double kDeg = std::numbers::pi / 180.0;
 
 Eigen::Isometry3d randomRigid(std::mt19937_64& rng, double translation_rms_mm, double rotation_deg) {
   std::normal_distribution<double> n(0.0, 1.0);

@@ -8,12 +8,10 @@
 #include "mrsns/core/error.h"
 #include "mrsns/core/rigid.h"
 #include "mrsns/core/rotation_average.h"
+#include "mrsns/core/units.h"
 
 namespace mrsns::hmd {
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
-constexpr double kDeg = kPi / 180.0;
 
 class Noise {
  public:

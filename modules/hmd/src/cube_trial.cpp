@@ -8,14 +8,13 @@
 
 #include "mrsns/core/error.h"
 #include "mrsns/core/rigid.h"
+#include "mrsns/core/units.h"
 #include "mrsns/hmd/cube_calibration.h"
 #include "mrsns/hmd/mr_chain.h"
 #include "mrsns/hmd/multi_view.h"
 
 namespace mrsns::hmd {
 namespace {
-
-constexpr double kDeg = std::numbers::pi / 180.0;
 
 struct Scene {
   Eigen::Isometry3d tracker_T_hologram;

@@ -17,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "io_text.h"
 #include "mrsns/core/error.h"
 
 namespace mrsns::io::detail {
@@ -24,12 +25,6 @@ namespace {
 
 constexpr int kHeaderSize = 348;
 
-std::string quoted(const std::filesystem::path& path) {
-  std::string s(1, '\'');
-  s += path.string();
-  s += '\'';
-  return s;
-}
 
 /// The decompressed bytes of a (possibly gzipped) file; `complete` is false
 /// when the compressed stream ends early or is corrupt.

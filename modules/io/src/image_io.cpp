@@ -13,6 +13,7 @@
 
 #include "header_checks.h"
 #include "itk_bridge.h"
+#include "io_text.h"
 #include "mrsns/core/error.h"
 #include "mrsns/core/log.h"
 #include "mrsns/io/file_names.h"
@@ -20,9 +21,8 @@
 namespace mrsns::io {
 namespace {
 
-std::string quoted(const std::filesystem::path& path) {
-  return "'" + path.string() + "'";
-}
+using detail::quoted;
+
 
 detail::RawImageFormat rawFormat(ImageFormat format) {
   switch (format) {

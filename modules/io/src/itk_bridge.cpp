@@ -29,14 +29,12 @@
 #include <limits>
 #include <mutex>
 
+#include "io_text.h"
 #include "mrsns/core/error.h"
 
 namespace mrsns::io::detail {
 namespace {
 
-std::string quoted(const std::filesystem::path& path) {
-  return "'" + path.string() + "'";
-}
 
 /// ITK's descriptions span several lines; keep one.
 std::string itkMessage(const itk::ExceptionObject& e) {

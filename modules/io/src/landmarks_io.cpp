@@ -11,6 +11,7 @@
 #include <optional>
 #include <sstream>
 
+#include "io_text.h"
 #include "mrsns/core/error.h"
 #include "mrsns/core/log.h"
 #include "mrsns/io/file_names.h"
@@ -18,9 +19,9 @@
 namespace mrsns::io {
 namespace {
 
-constexpr const char* kMarkupsSchema =
-    "https://raw.githubusercontent.com/slicer/slicer/master/Modules/Loadable/Markups/Resources/Schema/"
-    "markups-schema-v1.0.3.json#";
+using detail::kMarkupsSchema;
+using detail::quoted;
+
 
 std::string lower(std::string s) {
   return toLower(std::move(s));
@@ -33,9 +34,6 @@ std::string trim(const std::string& s) {
   return s.substr(b, e - b + 1);
 }
 
-std::string quoted(const std::filesystem::path& path) {
-  return "'" + path.string() + "'";
-}
 
 std::string slurp(const std::filesystem::path& path) {
   std::ifstream in(path, std::ios::binary);

@@ -35,12 +35,15 @@
 #include <mutex>
 #include <vector>
 
+#include "io_text.h"
 #include "mrsns/core/error.h"
 #include "mrsns/core/log.h"
 #include "mrsns/io/file_names.h"
 
 namespace mrsns::io {
 namespace {
+
+using detail::quoted;
 
 /// Messages VTK reports while a VtkMessageCapture is alive on this thread.
 thread_local std::vector<std::string>* t_vtk_messages = nullptr;
@@ -111,9 +114,6 @@ class VtkMessageCapture {
   std::vector<std::string>* previous_ = nullptr;
 };
 
-std::string quoted(const std::filesystem::path& path) {
-  return "'" + path.string() + "'";
-}
 
 /// A binary STL is exactly 84 + 50 n bytes; anything else must be ASCII
 /// ("solid ..."). Checked before VTK sees the file, because VTK reads garbage

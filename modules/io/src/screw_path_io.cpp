@@ -7,19 +7,17 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "io_text.h"
 #include "mrsns/core/error.h"
 #include "mrsns/core/log.h"
 
 namespace mrsns::io {
 namespace {
 
-constexpr const char* kMarkupsSchema =
-    "https://raw.githubusercontent.com/slicer/slicer/master/Modules/Loadable/Markups/Resources/Schema/"
-    "markups-schema-v1.0.3.json#";
+using detail::kMarkupsSchema;
+using detail::quoted;
 
-std::string quoted(const std::filesystem::path& path) {
-  return "'" + path.string() + "'";
-}
+
 
 std::string upper(std::string s) {
   std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return std::toupper(c); });

@@ -14,20 +14,17 @@
 #include <sstream>
 
 #include "itk_bridge.h"
+#include "io_text.h"
 #include "mrsns/core/error.h"
 #include "mrsns/io/file_names.h"
 
 namespace mrsns::io {
 namespace {
 
+using detail::quoted;
+
 constexpr double kRigidTolerance = 1e-5;
 
-std::string quoted(const std::filesystem::path& path) {
-  std::string s(1, '\'');
-  s += path.string();
-  s += '\'';
-  return s;
-}
 
 std::string slurp(const std::filesystem::path& path) {
   std::ifstream in(path, std::ios::binary);

@@ -11,6 +11,7 @@
 #include "mrsns/core/mesh_locator.h"
 #include "mrsns/core/rigid.h"
 #include "mrsns/core/rotation_average.h"
+#include "mrsns/core/units.h"
 #include "mrsns/registration/paired_point.h"
 #include "mrsns/registration/phantom_cervical.h"
 #include "mrsns/robot/control_loop.h"
@@ -19,9 +20,6 @@
 
 namespace mrsns::robot {
 namespace {
-
-constexpr double kPi = std::numbers::pi;
-constexpr double kDeg = kPi / 180.0;
 
 class Noise {
  public:

@@ -6,11 +6,10 @@
 #include <string>
 
 #include "mrsns/core/error.h"
+#include "mrsns/core/units.h"
 
 namespace mrsns::robot {
 namespace {
-
-constexpr double kPi = std::numbers::pi;
 
 double wrapAngle(double x) {
   x = std::remainder(x, 2.0 * kPi);

@@ -11,6 +11,7 @@
 
 #include "mrsns/core/error.h"
 #include "mrsns/core/log.h"
+#include "mrsns/core/wall_clock.h"
 #include "mrsns/igtlink/client.h"
 #include "mrsns/igtlink/polydata_mesh.h"
 #include "mrsns/tracking/unity_convention.h"
@@ -45,10 +46,6 @@ Eigen::Vector3d gaussian3(std::uint64_t key) {
   const double r1 = std::sqrt(-2.0 * std::log(u[2]));
   const double two_pi = 2.0 * std::numbers::pi;
   return {r0 * std::cos(two_pi * u[1]), r0 * std::sin(two_pi * u[1]), r1 * std::cos(two_pi * u[3])};
-}
-
-double utcNow() {
-  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
 }
 
 bool finiteRigid(const Eigen::Matrix4d& m) {
@@ -115,7 +112,7 @@ struct HmdEmulator::Impl {
 
   void onMessage(const igtlink::Message& m) noexcept {
     try {
-      const double received = utcNow();
+      const double received = unixTimeSeconds();
       const double headset_t = std::chrono::duration<double>(std::chrono::steady_clock::now() - clock_origin).count();
       std::lock_guard lock(mutex);
       stream_version = m.header.version >= 2 ? igtlink::HeaderVersion::kV2 : igtlink::HeaderVersion::kV1;
@@ -278,7 +275,7 @@ bool HmdEmulator::confirm(const std::string& what) {
     if (static_cast<unsigned char>(c) >= 0x80) text.encoding = igtlink::kEncodingUtf8;
   }
   text.text = what;
-  auto message = igtlink::makeMessage("Confirm", std::move(text), utcNow());
+  auto message = igtlink::makeMessage("Confirm", std::move(text), unixTimeSeconds());
   igtlink::HeaderVersion version = igtlink::HeaderVersion::kV1;
   {
     std::lock_guard lock(impl_->mutex);

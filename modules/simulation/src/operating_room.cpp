@@ -16,6 +16,8 @@
 
 #include "mrsns/core/error.h"
 #include "mrsns/core/rigid.h"
+#include "mrsns/core/units.h"
+#include "mrsns/core/wall_clock.h"
 #include "mrsns/io/sequence_file.h"
 #include "mrsns/robot/ur_simulator.h"
 #include "mrsns/simulation/bmode_renderer.h"
@@ -29,13 +31,8 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 using namespace std::chrono_literals;
-constexpr double kDeg = M_PI / 180.0;
 // The UR5's reach from its base axis (Universal Robots: 850 mm).
 constexpr double kUr5ReachMm = 850.0;
-
-double utcNow() {
-  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
-}
 
 // A pose as [x, y, z, qw, qx, qy, qz]: compact for the truth file.
 std::array<double, 7> compact(const Eigen::Isometry3d& p) {
@@ -481,7 +478,7 @@ void OperatingRoom::start() {
     impl_->hmd->start();
   }
   impl_->t0 = Clock::now();
-  impl_->utc0 = utcNow();
+  impl_->utc0 = unixTimeSeconds();
   impl_->running = true;
   if (impl_->replay) {
     impl_->replay_thread = std::thread([this] { impl_->replayLoop(); });

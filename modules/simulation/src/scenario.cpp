@@ -12,13 +12,13 @@
 #include "mrsns/core/data_dir.h"
 #include "mrsns/core/error.h"
 #include "mrsns/core/rigid.h"
+#include "mrsns/core/units.h"
 
 namespace mrsns::simulation {
 
 namespace {
 
 using Json = nlohmann::json;
-constexpr double kDeg = M_PI / 180.0;
 
 // One JSON object being read: remembers its key path for messages and refuses
 // keys that no reader asked for.

@@ -7,11 +7,11 @@
 #include <random>
 
 #include "mrsns/core/error.h"
+#include "mrsns/core/units.h"
 
 namespace mrsns::simulation {
 
 namespace {
-constexpr double kTwoPi = 2.0 * M_PI;
 constexpr double kRebuildInterval_s = 0.1;
 }  // namespace
 

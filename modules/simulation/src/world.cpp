@@ -8,6 +8,7 @@
 
 #include "mrsns/core/error.h"
 #include "mrsns/core/rigid.h"
+#include "mrsns/core/units.h"
 #include "mrsns/io/device_set.h"
 #include "mrsns/io/image_io.h"
 #include "mrsns/io/statismo_io.h"
@@ -17,9 +18,6 @@
 namespace mrsns::simulation {
 
 namespace {
-
-constexpr double kDeg = M_PI / 180.0;
-constexpr double kTwoPi = 2.0 * M_PI;
 
 // Minimum-jerk profile: how a hand moves between two poses (zero speed and
 // acceleration at both ends).

@@ -6,16 +6,13 @@
 #include "mrsns/core/error.h"
 #include "mrsns/core/log.h"
 #include "mrsns/core/rigid.h"
+#include "mrsns/core/wall_clock.h"
 
 namespace mrsns::tracking {
 namespace {
 
-double wallClockSeconds() {
-  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
-}
-
 double messageTime(const igtlink::Message& message) {
-  return message.header.timestamp == 0 ? wallClockSeconds() : message.header.timestampSeconds();
+  return message.header.timestamp == 0 ? unixTimeSeconds() : message.header.timestampSeconds();
 }
 
 // PLUS (v2) writes the tool status as metadata; v1 peers cannot, and a
@@ -220,7 +217,7 @@ void IgtlTrackingSource::markAll(TransformStatus status, const std::vector<std::
   try {
     if (names.empty()) return;
     std::vector<ToolUpdate> updates;
-    const double t = wallClockSeconds();
+    const double t = unixTimeSeconds();
     for (const auto& name : names) {
       ToolUpdate u;
       u.name = name;

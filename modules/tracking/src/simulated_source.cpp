@@ -7,11 +7,10 @@
 
 #include "mrsns/core/error.h"
 #include "mrsns/core/rigid.h"
+#include "mrsns/core/units.h"
 
 namespace mrsns::tracking {
 namespace {
-
-constexpr double kTwoPi = 2.0 * std::numbers::pi;
 
 Eigen::Isometry3d motionPose(const Motion& motion, double t) {
   return std::visit(

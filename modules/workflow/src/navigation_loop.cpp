@@ -5,6 +5,7 @@
 
 #include "mrsns/core/error.h"
 #include "mrsns/core/log.h"
+#include "mrsns/core/wall_clock.h"
 #include "mrsns/igtlink/server.h"
 #include "mrsns/workflow/navigation.h"
 #include "navigation_robot.h"
@@ -24,10 +25,6 @@ std::string statusName(TransformStatus s) {
 }
 
 constexpr std::size_t kMaxLatencySamples = 250000;
-
-double wallSeconds() {
-  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
-}
 
 }  // namespace
 
@@ -326,7 +323,7 @@ void NavigationLoop::process(const std::vector<tracking::ToolUpdate>& batch, dou
   {
     std::lock_guard stream_lock(stream_mutex_);
     if (streamer_) {
-      streamer_->update(wallSeconds());
+      streamer_->update(unixTimeSeconds());
       streamed = true;
     }
   }

@@ -13,6 +13,7 @@
 #include "mrsns/core/error.h"
 #include "mrsns/core/format.h"
 #include "mrsns/core/frame_poses.h"
+#include "mrsns/core/units.h"
 #include "mrsns/io/pose_csv.h"
 #include "mrsns/io/sequence_file.h"
 #include "mrsns/io/transform_io.h"
@@ -22,8 +23,6 @@
 namespace mrsns::workflow::detail {
 
 namespace {
-
-constexpr double kDeg = 3.14159265358979323846 / 180.0;
 
 struct PivotStepOptions {
   std::string tool = "Stylus";
