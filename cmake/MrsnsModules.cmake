@@ -2,6 +2,26 @@
 #
 # Builds modules/<name>/src/*.cpp into the library mrsns_<name>, aliased
 # mrsns::<name>, with modules/<name>/include as its public include directory.
+# Keeps the sources of `target` that include ITK out of its unity batches
+# (ITK 5.2 bundles its own Eigen, which clashes with the system Eigen in one
+# translation unit).
+function(mrsns_unity_exclusions target)
+  get_target_property(_sources ${target} SOURCES)
+  get_target_property(_dir ${target} SOURCE_DIR)
+  foreach(_src IN LISTS _sources)
+    if(NOT _src MATCHES "\\.cpp$")
+      continue()
+    endif()
+    if(NOT IS_ABSOLUTE "${_src}")
+      set(_src "${_dir}/${_src}")
+    endif()
+    file(STRINGS "${_src}" _itk REGEX "#include [<\"][^>\"]*itk")
+    if(_itk)
+      set_source_files_properties("${_src}" TARGET_DIRECTORY ${target} PROPERTIES SKIP_UNITY_BUILD_INCLUSION ON)
+    endif()
+  endforeach()
+endfunction()
+
 function(mrsns_add_module name)
   cmake_parse_arguments(ARG "" "" "PUBLIC_DEPS;PRIVATE_DEPS" ${ARGN})
   file(GLOB _sources CONFIGURE_DEPENDS "${CMAKE_CURRENT_SOURCE_DIR}/src/*.cpp")
@@ -13,6 +33,7 @@ function(mrsns_add_module name)
     PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/src)
   target_link_libraries(mrsns_${name} PUBLIC ${ARG_PUBLIC_DEPS} PRIVATE ${ARG_PRIVATE_DEPS} mrsns_warnings)
   set_target_properties(mrsns_${name} PROPERTIES POSITION_INDEPENDENT_CODE ON)
+  mrsns_unity_exclusions(mrsns_${name})
   set_property(GLOBAL APPEND PROPERTY MRSNS_MODULES mrsns_${name})
 endfunction()
 
@@ -33,6 +54,7 @@ function(mrsns_add_test module)
   endif()
   add_executable(${_exe} ${_sources})
   target_link_libraries(${_exe} PRIVATE ${ARG_LIBS} mrsns_test_support GTest::gmock GTest::gtest_main mrsns_warnings)
+  mrsns_unity_exclusions(${_exe})
   # Listing a program's tests is its first run: on a cold cache it loads VTK/ITK/Qt, which took over CMake's 5 s
   # default once in a CI run (the whole ctest run then failed), so allow a minute.
   gtest_discover_tests(${_exe}

@@ -20,5 +20,23 @@ mrsns_build() {
     cmake -S "$MRSNS_ROOT" -B "$MRSNS_BUILD_DIR" -G Ninja -DCMAKE_BUILD_TYPE=Release \
       -DMRSNS_WERROR="$werror" -DMRSNS_DATA_DIR="$MRSNS_DATA_DIR"
   fi
+  local before
+  before=$(ccache_counts)
   cmake --build "$MRSNS_BUILD_DIR" -j "$(nproc)"
+  # Whether this build was cold (every compilation a cache miss) or warm,
+  # so the build time printed by phase_end can be read.
+  if [ -n "$before" ]; then
+    read -r hits0 misses0 <<<"$before"
+    read -r hits1 misses1 <<<"$(ccache_counts)"
+    echo "ccache: $((hits1 - hits0)) hits, $((misses1 - misses0)) misses in this build"
+  fi
+}
+
+# "hits misses" of ccache so far (empty without ccache).
+ccache_counts() {
+  command -v ccache >/dev/null || return 0
+  ccache --print-stats 2>/dev/null | awk '
+    $1 == "direct_cache_hit" || $1 == "preprocessed_cache_hit" { h += $2 }
+    $1 == "cache_miss" { m += $2 }
+    END { print h + 0, m + 0 }'
 }
