@@ -5,6 +5,9 @@
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
 mrsns_build
+# Benchmarks are off in the default build (setup.sh); turn them on here.
+cmake -S "$MRSNS_ROOT" -B "$MRSNS_BUILD_DIR" -DMRSNS_BUILD_BENCHMARKS=ON >/dev/null
+cmake --build "$MRSNS_BUILD_DIR" -j "$(nproc)"
 # The peers that are Python packages (the ICP benchmark's Open3D) live in the
 # test venv; without network the benchmark says so and skips that peer.
 if [ ! -x "$MRSNS_BUILD_DIR/venv/bin/python" ]; then
