@@ -22,6 +22,21 @@ function(mrsns_unity_exclusions target)
   endforeach()
 endfunction()
 
+# The optimisation of a test program's own sources (MRSNS_TEST_OPTIMIZATION).
+function(mrsns_test_flags target)
+  if(NOT MRSNS_TEST_OPTIMIZATION OR NOT CMAKE_CXX_COMPILER_ID MATCHES "GNU|Clang")
+    return()
+  endif()
+  # After the build type's -O3: the last -O on the command line wins.
+  target_compile_options(${target} PRIVATE ${MRSNS_TEST_OPTIMIZATION})
+  # GCC 12 at -O1 reports Eigen's copy of a fully written dynamic matrix as
+  # maybe-uninitialized (e.g. tests/core/test_point_locator.cpp, a 1x3
+  # matrix filled with <<); the libraries keep the warning at -O3.
+  if(CMAKE_CXX_COMPILER_ID STREQUAL "GNU" AND MRSNS_TEST_OPTIMIZATION MATCHES "^-O[1g]$")
+    target_compile_options(${target} PRIVATE -Wno-maybe-uninitialized)
+  endif()
+endfunction()
+
 function(mrsns_add_module name)
   cmake_parse_arguments(ARG "" "" "PUBLIC_DEPS;PRIVATE_DEPS" ${ARGN})
   file(GLOB _sources CONFIGURE_DEPENDS "${CMAKE_CURRENT_SOURCE_DIR}/src/*.cpp")
@@ -55,16 +70,7 @@ function(mrsns_add_test module)
   add_executable(${_exe} ${_sources})
   target_link_libraries(${_exe} PRIVATE ${ARG_LIBS} mrsns_test_support GTest::gmock GTest::gtest_main mrsns_warnings)
   mrsns_unity_exclusions(${_exe})
-  if(MRSNS_TEST_OPTIMIZATION AND CMAKE_CXX_COMPILER_ID MATCHES "GNU|Clang")
-    # After the build type's -O3: the last -O on the command line wins.
-    target_compile_options(${_exe} PRIVATE ${MRSNS_TEST_OPTIMIZATION})
-    # GCC 12 at -O1 reports Eigen's copy of a fully written dynamic matrix as
-    # maybe-uninitialized (e.g. tests/core/test_point_locator.cpp, a 1x3
-    # matrix filled with <<); the libraries keep the warning at -O3.
-    if(CMAKE_CXX_COMPILER_ID STREQUAL "GNU" AND MRSNS_TEST_OPTIMIZATION MATCHES "^-O[1g]$")
-      target_compile_options(${_exe} PRIVATE -Wno-maybe-uninitialized)
-    endif()
-  endif()
+  mrsns_test_flags(${_exe})
   # Listing a program's tests is its first run: on a cold cache it loads VTK/ITK/Qt, which took over CMake's 5 s
   # default once in a CI run (the whole ctest run then failed), so allow a minute.
   gtest_discover_tests(${_exe}

@@ -8,6 +8,10 @@ export MRSNS_DATA_DIR
 export CCACHE_DIR="${CCACHE_DIR:-$HOME/.cache/ccache}"
 # Paths relative to the checkout, so a fresh clone elsewhere (CI) hits the cache.
 export CCACHE_BASEDIR="${CCACHE_BASEDIR:-$MRSNS_ROOT}"
+# Hash the compiler's own dependency list (-MD) instead of running the
+# preprocessor a second time on every miss: about 0.4 s per translation unit
+# of a cold build. (CCACHE_NODEPEND=1 turns it off.)
+[ -n "${CCACHE_NODEPEND:-}" ] || export CCACHE_DEPEND=1
 
 phase_start() { PHASE_NAME="$1"; PHASE_T0=$(date +%s); echo "== $1"; }
 phase_end() { echo "== $PHASE_NAME: $(( $(date +%s) - PHASE_T0 )) s"; }
