@@ -1,7 +1,3 @@
-# mrsns_add_module(<name> [PUBLIC_DEPS ...] [PRIVATE_DEPS ...])
-#
-# Builds modules/<name>/src/*.cpp into the library mrsns_<name>, aliased
-# mrsns::<name>, with modules/<name>/include as its public include directory.
 # Keeps the sources of `target` that include ITK out of its unity batches
 # (ITK 5.2 bundles its own Eigen, which clashes with the system Eigen in one
 # translation unit).
@@ -37,6 +33,10 @@ function(mrsns_test_flags target)
   endif()
 endfunction()
 
+# mrsns_add_module(<name> [PUBLIC_DEPS ...] [PRIVATE_DEPS ...])
+#
+# Builds modules/<name>/src/*.cpp into the library mrsns_<name>, aliased
+# mrsns::<name>, with modules/<name>/include as its public include directory.
 function(mrsns_add_module name)
   cmake_parse_arguments(ARG "" "" "PUBLIC_DEPS;PRIVATE_DEPS" ${ARGN})
   file(GLOB _sources CONFIGURE_DEPENDS "${CMAKE_CURRENT_SOURCE_DIR}/src/*.cpp")

@@ -4,10 +4,8 @@
 #   scripts/bench.sh --benchmark_repetitions=5
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
-mrsns_build
-# Benchmarks are off in the default build (setup.sh); turn them on here.
-cmake -S "$MRSNS_ROOT" -B "$MRSNS_BUILD_DIR" -DMRSNS_BUILD_BENCHMARKS=ON >/dev/null
-cmake --build "$MRSNS_BUILD_DIR" -j "$(nproc)"
+# Benchmarks are off in the default build (setup.sh); one build with them on.
+mrsns_build -DMRSNS_BUILD_BENCHMARKS=ON
 # The peers that are Python packages (the ICP benchmark's Open3D) live in the
 # test venv; without network the benchmark says so and skips that peer.
 if [ ! -x "$MRSNS_BUILD_DIR/venv/bin/python" ]; then

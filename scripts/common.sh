@@ -16,13 +16,16 @@ export CCACHE_BASEDIR="${CCACHE_BASEDIR:-$MRSNS_ROOT}"
 phase_start() { PHASE_NAME="$1"; PHASE_T0=$(date +%s); echo "== $1"; }
 phase_end() { echo "== $PHASE_NAME: $(( $(date +%s) - PHASE_T0 )) s"; }
 
-# Configures (once) and builds the project in $MRSNS_BUILD_DIR.
+# Configures (once) and builds the project in $MRSNS_BUILD_DIR. Arguments are
+# CMake cache settings applied before the build (bench.sh: the benchmarks).
 mrsns_build() {
   local werror=OFF
   [ "${CI:-}" = "true" ] && werror=ON
   if [ ! -f "$MRSNS_BUILD_DIR/build.ninja" ]; then
     cmake -S "$MRSNS_ROOT" -B "$MRSNS_BUILD_DIR" -G Ninja -DCMAKE_BUILD_TYPE=Release \
-      -DMRSNS_WERROR="$werror" -DMRSNS_DATA_DIR="$MRSNS_DATA_DIR"
+      -DMRSNS_WERROR="$werror" -DMRSNS_DATA_DIR="$MRSNS_DATA_DIR" "$@"
+  elif [ $# -gt 0 ]; then
+    cmake -S "$MRSNS_ROOT" -B "$MRSNS_BUILD_DIR" "$@" >/dev/null
   fi
   local before
   before=$(ccache_counts)
