@@ -143,7 +143,9 @@ TEST(SimCli, ScoreComparesASessionWithTheTruth) {
       {"steps",
        {{"us-spatial-calibration",
          {{"status", "ok"},
-          {"figures", {{"transforms", {{"ImageToProbe", {0.2, 0, 0, 2, 0, 0.1, 0, 2, 0, 0, 1, 3, 0, 0, 0, 1}}}}}}}}}},
+          {"figures",
+           {{"simulated", true},
+            {"transforms", {{"ImageToProbe", {0.2, 0, 0, 2, 0, 0.1, 0, 2, 0, 0, 1, 3, 0, 0, 0, 1}}}}}}}}}},
       {"log", Json::array()}};
   std::ofstream(dir / "session" / "session.json") << session.dump();
   const auto score = runSim({"score", (dir / "session").string(), (dir / "truth.json").string(), "--json"});
@@ -153,6 +155,24 @@ TEST(SimCli, ScoreComparesASessionWithTheTruth) {
   EXPECT_NEAR(j["scored"]["us_spatial_calibration"]["error"]["max_mm"].get<double>(), 1.0, 1e-9);
   EXPECT_FALSE(j["not_scored"].empty()) << "the steps that did not run are listed";
   expectOneLineError(runSim({"score", (dir / "session").string(), scenario.string()}), "not an mrsns-sim truth file");
+
+  // The same result computed from other data (a recording of a real probe, an in-process simulation) is
+  // not judged by this room's truth.
+  for (const Json& figures :
+       {Json{{"simulated", false}, {"transforms", {{"ImageToProbe", Json(session["steps"]["us-spatial-calibration"]
+                                                                          ["figures"]["transforms"]["ImageToProbe"])}}}},
+        Json{{"simulated", true},
+             {"simulation_truth", Json::object()},
+             {"transforms", {{"ImageToProbe", Json::array({1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1})}}}}}) {
+    Json other = session;
+    other["steps"]["us-spatial-calibration"]["figures"] = figures;
+    std::ofstream(dir / "session" / "session.json") << other.dump();
+    const auto r = runSim({"score", (dir / "session").string(), (dir / "truth.json").string(), "--json"});
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const auto k = Json::parse(r.out);
+    EXPECT_FALSE(k["scored"].contains("us_spatial_calibration")) << figures.dump();
+    EXPECT_NE(k["not_scored"].dump().find("not acquired from mrsns-sim"), std::string::npos) << k.dump();
+  }
 }
 
 }  // namespace

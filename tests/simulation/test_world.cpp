@@ -1,11 +1,14 @@
 // The world's truth: motion segments, the operator's hand (tremor RMS and
 // band), visibility (measurement volume, line of sight, faults), patient
-// shifts, image-plane poses.
+// shifts, image-plane poses, the pointer touching landmarks and tracing the
+// bone.
 #include <gtest/gtest.h>
 
 #include <cmath>
 
+#include "mrsns/core/error.h"
 #include "mrsns/core/rigid.h"
+#include "mrsns/registration/phantom_cervical.h"
 #include "mrsns/simulation/scenario.h"
 #include "mrsns/simulation/world.h"
 
@@ -173,6 +176,66 @@ TEST(World, ImagePosesPlaceTheImagePlaneThroughTheTrueCalibration) {
   EXPECT_NEAR(rotationAngle(image.linear()), M_PI / 4.0, 1e-9);
   const Eigen::Isometry3d probe = world.tools(0.5, std::nullopt)[0].tracker_T_tool;
   EXPECT_TRUE((probe * s.ultrasound.probe_T_image).matrix().isApprox(image.matrix(), 1e-9));
+}
+
+
+const std::string kPatient = R"(, "patient": {"generated_phantom": {"spacing_mm": 2.0}, "reference_tool": "PatientToTracker",
+    "ct_to_reference": {"translation_mm": [0, 90, -30], "rotation_deg": [90, 0, 0]}})";
+
+TEST(World, TouchLandmarksHoldsTheTipOnEachLandmarkInTurnFollowingThePatient) {
+  const auto s = scenarioWith(
+      R"({"name": "PatientToTracker", "start": {"translation_mm": [0, 0, -1400]}},
+         {"name": "StylusToTracker", "tip_mm": [0, 0, -160], "start": {"translation_mm": [150, 0, -1200]},
+          "motion": [{"kind": "touch_landmarks", "travel_s": 1, "dwell_s": 2, "approach_mm": 20,
+                      "points_ct_mm": [[10, 5, 0], [-20, 8, 30]],
+                      "misplaced": [{"landmark": 2, "offset_mm": [3, 0, 0]}]}]})",
+      kPatient + R"(, "faults": [{"kind": "patient_shift", "at_s": 5, "shift": {"translation_mm": [4, 0, 0]}}])");
+  const World world(s);
+  const auto tip = [&](double t) { return Eigen::Vector3d(world.tools(t, std::nullopt)[1].tracker_T_tool * Eigen::Vector3d(0, 0, -160)); };
+  // Landmark 1 is held from 1.5 s to 3.5 s; landmark 2 (touched 3 mm beside it) from 5.5 s, after the patient moved.
+  for (double t : {1.6, 2.5, 3.4}) {
+    EXPECT_TRUE(tip(t).isApprox(world.trackerTCt(t) * Eigen::Vector3d(10, 5, 0), 1e-9)) << t;
+  }
+  for (double t : {5.6, 6.5, 7.4}) {
+    EXPECT_TRUE(tip(t).isApprox(world.trackerTCt(t) * Eigen::Vector3d(-17, 8, 30), 1e-9)) << t;
+  }
+  // Between touches the tip is lifted along the shaft: 20 mm above the landmark at the end of the lift.
+  EXPECT_NEAR((tip(4.0) - world.trackerTCt(4.0) * Eigen::Vector3d(10, 5, 0)).norm(), 20.0, 1e-6);
+  // The pointer keeps the orientation it started with.
+  EXPECT_TRUE(world.tools(6.0, std::nullopt)[1].tracker_T_tool.linear().isApprox(Eigen::Matrix3d::Identity(), 1e-9));
+}
+
+TEST(World, TraceBoneMovesTheTipOverTheExposedPosteriorSurface) {
+  const auto s = scenarioWith(
+      R"({"name": "PatientToTracker", "start": {"translation_mm": [0, 0, -1400]}},
+         {"name": "StylusToTracker", "tip_mm": [0, 0, -160], "start": {"translation_mm": [150, 0, -1200]},
+          "motion": [{"kind": "trace_bone", "points": 40, "duration_s": 10}]})",
+      kPatient);
+  const World world(s);
+  registration::PhantomOptions options;
+  options.spacing_mm = 2.0;
+  const auto phantom = registration::generateCervicalPhantom(options);
+  // The visited points (the end of each move: 1.5 s of approach and descent, then 0.2 s steps) lie on the bone.
+  int on_bone = 0, visited = 0;
+  for (double t = 1.5; t < 9.4; t += 0.01) {
+    const Eigen::Vector3d tip_ct =
+        world.trackerTCt(t).inverse() * (world.tools(t, std::nullopt)[1].tracker_T_tool * Eigen::Vector3d(0, 0, -160));
+    const double d = std::abs(registration::phantomBoneDistance(phantom, tip_ct));
+    ++visited;
+    on_bone += d < 1.0 ? 1 : 0;
+  }
+  EXPECT_GT(on_bone, visited / 2) << "most of the sweep stays within 1 mm of the bone (chords cross gaps)";
+}
+
+TEST(World, RegistrationMotionsNeedATipAndAPatient) {
+  EXPECT_THROW(scenarioWith(R"({"name": "StylusToTracker", "motion": [{"kind": "touch_landmarks"}]})"), FormatError);
+  EXPECT_THROW(World(scenarioWith(
+                   R"({"name": "StylusToTracker", "tip_mm": [0, 0, -160], "motion": [{"kind": "trace_bone"}]})")),
+               InvalidArgumentError);
+  EXPECT_THROW(scenarioWith(R"({"name": "StylusToTracker", "tip_mm": [0, 0, -160],
+                               "motion": [{"kind": "touch_landmarks", "dwell": 2}]})"),
+               FormatError)
+      << "unknown keys are refused";
 }
 
 }  // namespace

@@ -202,8 +202,10 @@ MotionSegment readSegment(const Node& n) {
                                {"move", MotionKind::Move},
                                {"sweep", MotionKind::Sweep},
                                {"pivot", MotionKind::Pivot},
-                               {"up_down", MotionKind::UpDown}});
-  if (!n.has("kind")) n.fail("needs 'kind' (hold, move, sweep, pivot, up_down)");
+                               {"up_down", MotionKind::UpDown},
+                               {"touch_landmarks", MotionKind::TouchLandmarks},
+                               {"trace_bone", MotionKind::TraceBone}});
+  if (!n.has("kind")) n.fail("needs 'kind' (hold, move, sweep, pivot, up_down, touch_landmarks, trace_bone)");
   s.duration_s = n.number("duration_s", 1.0, 1e-3, 86400.0);
   switch (s.kind) {
     case MotionKind::Hold: n.allow({"kind", "duration_s", "pose", "frame", "pose_of"}); break;
@@ -231,10 +233,44 @@ MotionSegment readSegment(const Node& n) {
       if (s.axis_tool.norm() < 1e-9) n.failKey("axis", "must not be zero");
       s.axis_tool.normalize();
       break;
+    case MotionKind::TouchLandmarks:
+      n.allow({"kind", "points_ct_mm", "travel_s", "dwell_s", "approach_mm", "misplaced"});
+      if (n.has("points_ct_mm")) {
+        const auto& v = n.json().at("points_ct_mm");
+        if (!v.is_array() || v.empty()) n.failKey("points_ct_mm", "must be a non-empty array of [x, y, z]");
+        for (const auto& point : v) {
+          Eigen::Vector3d q;
+          const bool ok = point.is_array() && point.size() == 3 && point[0].is_number() && point[1].is_number() &&
+                          point[2].is_number();
+          if (ok) q = Eigen::Vector3d(point[0].get<double>(), point[1].get<double>(), point[2].get<double>());
+          if (!ok || !q.allFinite()) n.failKey("points_ct_mm", "must be a non-empty array of [x, y, z] (mm)");
+          s.points_ct.push_back(q);
+        }
+      }
+      s.travel_s = n.number("travel_s", s.travel_s, 0.1, 60.0);
+      s.dwell_s = n.number("dwell_s", s.dwell_s, 0.1, 60.0);
+      s.approach_mm = n.number("approach_mm", s.approach_mm, 0.0, 200.0);
+      for (const auto& m : n.array("misplaced")) {
+        m.allow({"landmark", "offset_mm"});
+        MisplacedTouch t;
+        t.landmark = m.integer("landmark", 0, 1, 1000);
+        if (!m.has("landmark")) m.fail("needs 'landmark' (1-based, in the order touched)");
+        t.offset_ct = m.vector3("offset_mm", t.offset_ct);
+        s.misplaced.push_back(t);
+      }
+      // Its length follows from the landmarks (known once the patient is built).
+      s.duration_s = 0.0;
+      break;
+    case MotionKind::TraceBone:
+      n.allow({"kind", "duration_s", "points", "margin_mm"});
+      s.trace_points = n.integer("points", s.trace_points, 4, 100000);
+      s.trace_margin_mm = n.number("margin_mm", s.trace_margin_mm, 0.0, 200.0);
+      break;
   }
   if (n.has("pose")) s.pose = n.pose("pose", Eigen::Isometry3d::Identity());
   s.frame = poseFrame(n, "frame");
-  s.pose_of = choose<PoseOf>(n, "pose_of", PoseOf::Tool, {{"tool", PoseOf::Tool}, {"image", PoseOf::Image}});
+  s.pose_of = choose<PoseOf>(n, "pose_of", PoseOf::Tool,
+                             {{"tool", PoseOf::Tool}, {"image", PoseOf::Image}, {"tip", PoseOf::Tip}});
   return s;
 }
 
@@ -279,6 +315,9 @@ ToolSpec readTool(const Node& n) {
     if (seg.kind == MotionKind::Pivot && !seg.tip_tool && !t.tip_tool) {
       n.fail("pivots without a tip: give the tool's 'tip_mm' or the pivot segment's 'tip_mm'");
     }
+    const bool by_tip = seg.kind == MotionKind::TouchLandmarks || seg.kind == MotionKind::TraceBone ||
+                        (seg.pose_of == PoseOf::Tip && seg.pose);
+    if (by_tip && !t.tip_tool) n.fail("places its tip (touch_landmarks, trace_bone, pose_of tip) without 'tip_mm'");
   }
   return t;
 }

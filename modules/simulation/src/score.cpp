@@ -51,10 +51,18 @@ Json stats(const std::vector<double>& v) {
   return {{"mean_mm", v.empty() ? 0.0 : sum / static_cast<double>(v.size())}, {"max_mm", worst}, {"points", v.size()}};
 }
 
+// Only a result measured in a simulated room can be judged by its truth: a step run on other data (a
+// recording of a real device, an in-process simulation with its own patient) says so in its figures.
+bool fromSimulatedRoom(const Json& step) {
+  return step.contains("figures") && step["figures"].is_object() && step["figures"].value("simulated", false) &&
+         !step["figures"].contains("simulation_truth");
+}
+
 const Json* recordedTransform(const Json& session, const std::string& step, const std::string& name) {
   if (!session.contains("steps") || !session["steps"].contains(step)) return nullptr;
   const Json& s = session["steps"][step];
-  if (s.value("status", "") != "ok" || !s.contains("figures") || !s["figures"].contains("transforms") ||
+  if (s.value("status", "") != "ok" || !fromSimulatedRoom(s) || !s.contains("figures") ||
+      !s["figures"].contains("transforms") ||
       !s["figures"]["transforms"].contains(name)) {
     return nullptr;
   }
@@ -97,11 +105,13 @@ std::string scoreSession(const std::filesystem::path& session_dir, const std::fi
                                           {"error", stats(errors)}};
     }
   } else {
-    not_scored.push_back("us-spatial-calibration (not run, failed, or without ImageToProbe)");
+    not_scored.push_back(
+        "us-spatial-calibration (not run, failed, without ImageToProbe, or not acquired from mrsns-sim)");
   }
 
   const Json& steps = session.contains("steps") ? session["steps"] : Json::object();
-  if (steps.contains("pivot-calibration") && steps["pivot-calibration"].value("status", "") == "ok") {
+  if (steps.contains("pivot-calibration") && steps["pivot-calibration"].value("status", "") == "ok" &&
+      fromSimulatedRoom(steps["pivot-calibration"])) {
     const Json& f = steps["pivot-calibration"]["figures"];
     const std::string tool = f.value("tool", "Stylus");
     const Json tips = st.value("tool_tips_mm", Json::object());
@@ -118,11 +128,11 @@ std::string scoreSession(const std::filesystem::path& session_dir, const std::fi
       not_scored.push_back("pivot-calibration (the truth has no tip for " + tool + ")");
     }
   } else {
-    not_scored.push_back("pivot-calibration (not run or failed)");
+    not_scored.push_back("pivot-calibration (not run, failed, or not acquired from mrsns-sim)");
   }
 
   if (steps.contains("us-temporal-calibration") && steps["us-temporal-calibration"].value("status", "") == "ok" &&
-      st.contains("video_lag_s")) {
+      fromSimulatedRoom(steps["us-temporal-calibration"]) && st.contains("video_lag_s")) {
     const double estimated_ms = steps["us-temporal-calibration"]["figures"].value("tracker_lag_ms", 0.0);
     // A video that lags the tracking by L pairs each frame with the pose L earlier: a tracker lag of -L.
     const double expected_ms = -st["video_lag_s"].get<double>() * 1e3;
@@ -133,28 +143,32 @@ std::string scoreSession(const std::filesystem::path& session_dir, const std::fi
                                          {"true_ms", expected_ms},
                                          {"error_ms", estimated_ms - expected_ms}};
   } else {
-    not_scored.push_back("us-temporal-calibration (not run or failed)");
+    not_scored.push_back("us-temporal-calibration (not run, failed, or not acquired from mrsns-sim)");
   }
 
   if (const Json* est = recordedTransform(session, "registration", "CTToPatient")) {
     if (st.contains("CTToReference")) {
       const Eigen::Matrix4d e = matrix(*est, "session CTToPatient"), t = matrix(st["CTToReference"], "truth");
-      std::vector<double> errors;
-      if (st.contains("fiducials_ct")) {
-        for (const auto& f : st["fiducials_ct"]) {
-          const Eigen::Vector4d p(f["ct_mm"][0].get<double>(), f["ct_mm"][1].get<double>(), f["ct_mm"][2].get<double>(),
-                                  1.0);
-          errors.push_back(((e - t) * p).head<3>().norm());
-        }
+      const auto errorAt = [&](const Json& p) {
+        const Eigen::Vector4d q(p[0].get<double>(), p[1].get<double>(), p[2].get<double>(), 1.0);
+        return ((e - t) * q).head<3>().norm();
+      };
+      std::vector<double> errors, screw_errors;
+      for (const auto& f : st.value("fiducials_ct", Json::array())) errors.push_back(errorAt(f["ct_mm"]));
+      for (const auto& path : st.value("screw_paths_ct", Json::array())) {
+        screw_errors.push_back(errorAt(path["entry_ct_mm"]));
+        screw_errors.push_back(errorAt(path["target_ct_mm"]));
       }
       if (errors.empty()) errors.push_back(((e - t) * Eigen::Vector4d(0, 0, 0, 1)).head<3>().norm());
       scored["registration"] = {{"definition",
                                  "target registration error at the true fiducial positions (CT "
-                                 "origin when the patient has none)"},
+                                 "origin when the patient has none), and at the planned screws' entries "
+                                 "and targets"},
                                 {"error", stats(errors)}};
+      if (!screw_errors.empty()) scored["registration"]["error_at_planned_screws"] = stats(screw_errors);
     }
   } else {
-    not_scored.push_back("registration (not run, failed, or without CTToPatient)");
+    not_scored.push_back("registration (not run, failed, without CTToPatient, or not acquired from mrsns-sim)");
   }
 
   if (const Json* est = recordedTransform(session, "robot-calibration", "RobotBaseToTracker")) {
@@ -170,7 +184,8 @@ std::string scoreSession(const std::filesystem::path& session_dir, const std::fi
           {"error_500mm_mm", ((e * Eigen::Vector3d(0, 0, 500) - t * Eigen::Vector3d(0, 0, 500))).norm()}};
     }
   } else {
-    not_scored.push_back("robot-calibration (not run, failed, or without RobotBaseToTracker)");
+    not_scored.push_back(
+        "robot-calibration (not run, failed, without RobotBaseToTracker, or not acquired from mrsns-sim)");
   }
 
   out["scored"] = scored;

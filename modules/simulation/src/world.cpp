@@ -14,6 +14,7 @@
 #include "mrsns/io/statismo_io.h"
 #include "mrsns/registration/phantom_cervical.h"
 #include "mrsns/simulation/soft_tissue.h"
+#include "registration_motion.h"
 
 namespace mrsns::simulation {
 
@@ -105,6 +106,27 @@ struct World::Patient {
 };
 
 World::World(const Scenario& scenario) : scenario_(scenario) {
+  if (scenario_.patient) {
+    patient_ = std::make_unique<Patient>();
+    const auto& spec = *scenario_.patient;
+    if (spec.generated) {
+      registration::PhantomOptions options;
+      options.spacing_mm = spec.phantom_spacing_mm;
+      options.seed = scenario_.seed;
+      patient_->phantom = registration::generateCervicalPhantom(options);
+    } else {
+      patient_->labels = io::readImage(spec.labels);
+      if (patient_->labels.empty()) throw FormatError("the label map " + spec.labels.string() + " is empty");
+      patient_->lps_to_ijk = patient_->labels.ijkToLps().inverse();
+      patient_->vessel_labels = spec.vessel_labels;
+      patient_->ignored_labels = spec.ignored_labels;
+    }
+    if (spec.soft_tissue) {
+      patient_->soft_tissue = std::make_unique<DeformingSoftTissue>(
+          io::readStatismoModel(spec.soft_tissue->shape_model), *spec.soft_tissue, scenario_.seed);
+    }
+  }
+  expandRegistrationMotions();
   std::mt19937_64 rng(scenario_.seed * 7919ULL + 17ULL);
   std::uniform_real_distribution<double> uniform(0.0, 1.0);
   for (std::size_t i = 0; i < scenario_.tools.size(); ++i) {
@@ -151,26 +173,6 @@ World::World(const Scenario& scenario) : scenario_(scenario) {
     if (scenario_.ultrasound.enabled && tool.name == scenario_.ultrasound.probe_tool) probe_index_ = i;
   }
 
-  if (scenario_.patient) {
-    patient_ = std::make_unique<Patient>();
-    const auto& spec = *scenario_.patient;
-    if (spec.generated) {
-      registration::PhantomOptions options;
-      options.spacing_mm = spec.phantom_spacing_mm;
-      options.seed = scenario_.seed;
-      patient_->phantom = registration::generateCervicalPhantom(options);
-    } else {
-      patient_->labels = io::readImage(spec.labels);
-      if (patient_->labels.empty()) throw FormatError("the label map " + spec.labels.string() + " is empty");
-      patient_->lps_to_ijk = patient_->labels.ijkToLps().inverse();
-      patient_->vessel_labels = spec.vessel_labels;
-      patient_->ignored_labels = spec.ignored_labels;
-    }
-    if (spec.soft_tissue) {
-      patient_->soft_tissue = std::make_unique<DeformingSoftTissue>(
-          io::readStatismoModel(spec.soft_tissue->shape_model), *spec.soft_tissue, scenario_.seed);
-    }
-  }
   if (scenario_.nwire_phantom) {
     const auto config = io::readDeviceSet(scenario_.nwire_phantom->config);
     if (!config.phantom || config.phantom->patterns.empty()) {
@@ -192,6 +194,48 @@ World::World(const Scenario& scenario) : scenario_(scenario) {
 }
 
 World::~World() = default;
+
+void World::expandRegistrationMotions() {
+  std::vector<Eigen::Vector3d> fiducials_ct;
+  if (patient_ && patient_->phantom) {
+    for (const auto& l : patient_->phantom->fiducials_truth.points) fiducials_ct.push_back(l.position);
+  }
+  // Where the CT lies when the room starts: the patient's reference where it starts, then CT in it.
+  Eigen::Isometry3d tracker_T_ct = Eigen::Isometry3d::Identity();
+  if (scenario_.patient) {
+    for (const auto& tool : scenario_.tools) {
+      if (tool.name == scenario_.patient->reference_tool) tracker_T_ct = tool.start;
+    }
+    tracker_T_ct = tracker_T_ct * scenario_.patient->reference_T_ct;
+  }
+  for (auto& tool : scenario_.tools) {
+    std::vector<MotionSegment> expanded;
+    for (const auto& seg : tool.motion) {
+      if (seg.kind != MotionKind::TouchLandmarks && seg.kind != MotionKind::TraceBone) {
+        expanded.push_back(seg);
+        continue;
+      }
+      if (!patient_) {
+        throw InvalidArgumentError(tool.name + ": touch_landmarks and trace_bone need a 'patient'");
+      }
+      PointerGeometry pointer;
+      pointer.tip_tool = tool.tip_tool.value_or(Eigen::Vector3d::Zero());
+      // The pointer keeps the orientation it starts with in the room (held as it was picked up).
+      const Eigen::Matrix3d tracker_R_tool = tool.start_frame == PoseFrame::Tracker
+                                                 ? Eigen::Matrix3d(tool.start.linear())
+                                                 : Eigen::Matrix3d(tracker_T_ct.linear() * tool.start.linear());
+      pointer.ct_R_tool = tracker_T_ct.linear().transpose() * tracker_R_tool;
+      const Patient* patient = patient_.get();
+      const auto more =
+          seg.kind == MotionKind::TouchLandmarks
+              ? touchLandmarkSegments(seg, pointer, fiducials_ct)
+              : traceBoneSegments(seg, pointer, fiducials_ct,
+                                  [patient](const Eigen::Vector3d& p) { return patient->boneDistance(p); });
+      expanded.insert(expanded.end(), more.begin(), more.end());
+    }
+    tool.motion = std::move(expanded);
+  }
+}
 
 Eigen::Isometry3d World::patientShift(double t, bool relative) const {
   Eigen::Isometry3d shift = Eigen::Isometry3d::Identity();
@@ -254,6 +298,7 @@ Eigen::Isometry3d World::toolPose(std::size_t index, double t) const {
     const PoseFrame frame = isReference(index) ? PoseFrame::Tracker : k.frame;
     Eigen::Isometry3d p = frameInTracker(frame, t) * k.pose;
     if (k.of == PoseOf::Image) p = p * image_T_probe;
+    if (k.of == PoseOf::Tip) p = p * Eigen::Translation3d(-tool.tip_tool.value_or(Eigen::Vector3d::Zero()));
     return p;
   };
 
@@ -275,6 +320,8 @@ Eigen::Isometry3d World::toolPose(std::size_t index, double t) const {
     const double u = local / duration;
     const Eigen::Isometry3d from = resolve(previous);
     switch (seg.kind) {
+      case MotionKind::TouchLandmarks:
+      case MotionKind::TraceBone: break;  // replaced by holds and moves when the world was built
       case MotionKind::Hold: pose = resolve(target); break;
       case MotionKind::Move: pose = interpolatePose(from, resolve(target), minimumJerk(u)); break;
       case MotionKind::Sweep: {
@@ -470,6 +517,13 @@ std::string World::staticTruthJson() const {
       fiducials.push_back({{"label", s.label}, {"ct_mm", {s.bone_entry.x(), s.bone_entry.y(), s.bone_entry.z()}}});
     }
     j["fiducials_ct"] = fiducials;
+    nlohmann::json paths = nlohmann::json::array();
+    for (const auto& path : patient_->phantom->screw_paths) {
+      paths.push_back({{"name", path.name},
+                       {"entry_ct_mm", {path.entry.x(), path.entry.y(), path.entry.z()}},
+                       {"target_ct_mm", {path.target.x(), path.target.y(), path.target.z()}}});
+    }
+    j["screw_paths_ct"] = paths;
   }
   nlohmann::json faults = nlohmann::json::array();
   for (const auto& f : scenario_.faults) {

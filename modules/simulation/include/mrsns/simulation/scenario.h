@@ -18,12 +18,22 @@ namespace mrsns::simulation {
 /// the patient's reference marker as it moves.
 enum class PoseFrame { Tracker, Reference, Phantom, CT, RobotBase };
 
-/// What a motion segment's pose places: the tool's marker, or (for the
-/// probe) its image plane, from which the marker follows through the true
-/// ImageToProbe.
-enum class PoseOf { Tool, Image };
+/// What a motion segment's pose places: the tool's marker, (for the probe)
+/// its image plane, from which the marker follows through the true
+/// ImageToProbe, or (for a pointer) its tip: the pose's origin is where the
+/// tool's `tip_mm` goes, its axes are the marker's.
+enum class PoseOf { Tool, Image, Tip };
 
-enum class MotionKind { Hold, Move, Sweep, Pivot, UpDown };
+/// TouchLandmarks and TraceBone are what a surgeon does for a registration;
+/// the world expands them into holds and moves of the tool's tip once it
+/// knows the patient (its fiducials, its bone surface).
+enum class MotionKind { Hold, Move, Sweep, Pivot, UpDown, TouchLandmarks, TraceBone };
+
+/// A landmark touched at the wrong place (a fault of a registration).
+struct MisplacedTouch {
+  int landmark = 1;  ///< 1-based, in the order touched
+  Eigen::Vector3d offset_ct = Eigen::Vector3d::Zero();
+};
 
 /// One step of the virtual operator's timeline for one tool.
 struct MotionSegment {
@@ -42,6 +52,18 @@ struct MotionSegment {
   bool one_axis = false;                                 ///< pivot about one axis only (a degenerate acquisition)
   double amplitude_mm = 10.0;                            ///< up_down
   Eigen::Vector3d axis_tool = Eigen::Vector3d::UnitZ();  ///< up_down direction (tool frame)
+  /// touch_landmarks: the points touched in order (CT mm); empty: the patient's fiducials.
+  std::vector<Eigen::Vector3d> points_ct;
+  /// touch_landmarks, per landmark: travel_s to approach_mm above it along the tool's axis, 0.5 s down,
+  /// dwell_s held on it, 0.5 s up.
+  double travel_s = 1.5;
+  double dwell_s = 2.0;
+  double approach_mm = 20.0;
+  std::vector<MisplacedTouch> misplaced;
+  /// trace_bone: points of the exposed (posterior) bone surface under the landmarks' extent, visited in a
+  /// serpentine over duration_s.
+  int trace_points = 80;
+  double trace_margin_mm = 5.0;  ///< the traced area extends this far beyond the landmarks
 };
 
 /// The operator's hand (paper 001 §II.C: physiological tremor 8-12 Hz).

@@ -60,6 +60,8 @@ class World {
  private:
   struct Patient;
   struct ToolTimeline;
+  /// Replaces touch_landmarks and trace_bone segments by the holds and moves of the tip they stand for.
+  void expandRegistrationMotions();
   [[nodiscard]] Eigen::Isometry3d toolPose(std::size_t index, double t) const;
   [[nodiscard]] bool isReference(std::size_t index) const;
   [[nodiscard]] Eigen::Isometry3d frameInTracker(PoseFrame frame, double t) const;
