@@ -63,6 +63,10 @@ StepResult runUsTemporalCalibration(Session& session, const Json& params, const 
 StepResult runLiveTemporalCalibration(Session& session, const Params& p, const StepContext& context);
 StepResult runRobotCalibration(Session& session, const Json& params, const StepContext& context);
 StepResult runRegistration(Session& session, const Json& params, const StepContext& context);
+/// registration with source=plus (live from the tracker) or file (a recording of it).
+StepResult runAcquiredRegistration(Session& session, const Json& params, const StepContext& context);
+/// registration with source=simulated: the in-process simulated patient.
+StepResult runSimulatedRegistration(Session& session, const Json& params, const StepContext& context);
 StepResult runHmdCalibration(Session& session, const Json& params, const StepContext& context);
 StepResult runNavigation(Session& session, const Json& params, const StepContext& context);
 StepResult runRobotPlacement(Session& session, const Json& params, const StepContext& context);

@@ -181,7 +181,13 @@ StepResult runRobotPlacement(Session& session, const Json& params, const StepCon
   const int placement_trials = p.integer("placement_trials", 2);
   if (placement_trials < 0) throw InvalidArgumentError("robot-placement: placement_trials must be >= 0 (0 skips)");
   const Eigen::Isometry3d est_patient_T_ct = recorded(session, "registration", "transforms", "CTToPatient");
-  const Eigen::Isometry3d true_patient_T_ct = recorded(session, "registration", "simulation_truth", "CTToPatient");
+  // A registration acquired from the devices (live or a recording) carries no truth: the placement then
+  // measures the robot's chain alone, and mrsns-sim score judges the registration against the truth.
+  const auto reg_figures = session.step("registration")["figures"];
+  const bool registration_simulated = reg_figures.contains("simulation_truth");
+  const Eigen::Isometry3d true_patient_T_ct =
+      registration_simulated ? recorded(session, "registration", "simulation_truth", "CTToPatient")
+                             : est_patient_T_ct;
   const Eigen::Isometry3d est_tracker_T_base =
       recorded(session, "robot-calibration", "transforms", "RobotBaseToTracker");
   const Eigen::Isometry3d true_tracker_T_base =
@@ -226,7 +232,12 @@ StepResult runRobotPlacement(Session& session, const Json& params, const StepCon
                     {"target_error_mm", statsJson(target_errors)},
                     {"angle_error_deg", statsJson(angle_errors)},
                     {"noise_model", {{"robot_accuracy_rms_mm", robot_accuracy}, {"tracker_rms_mm", tracker_noise}}},
-                    {"robot", "transform chain of this session (Eq. 4) with a simulated robot"}};
+                    {"robot", "transform chain of this session (Eq. 4) with a simulated robot"},
+                    {"registration_error",
+                     registration_simulated
+                         ? "included (the simulated registration's own patient)"
+                         : "not included: the registration was acquired from the devices and has no truth here "
+                           "(mrsns-sim score judges it)"}};
   if (placement_trials > 0) {
     checkCancel(context);
     context.report(0.9, "robot module placement trial (UR5 simulator, control loop, supervisor)");
