@@ -35,9 +35,10 @@ TEST(CliTrial, ShortTrialReportHasEveryFigure) {
         "/transforms/ImageToProbe"}},
       {"us-temporal-calibration", {"/tracker_lag_ms", "/curve"}},
       {"robot-calibration", {"/fre_rms_mm", "/tre_at_patient_mm", "/transforms/RobotBaseToTracker"}},
+      {"pivot-calibration", {"/tip_marker_mm", "/rms_mm", "/recorded/file"}},
       {"registration",
-       {"/landmarks/fre_rms_mm", "/landmarks/tre/rms", "/surface/rms_mm", "/surface/tre/rms", "/targets",
-        "/transforms/CTToPatient"}},
+       {"/landmarks/fre_rms_mm", "/landmarks/matched", "/surface/rms_mm", "/tre_predicted_at_screws/rms", "/targets",
+        "/models", "/paths", "/transforms/CTToPatient", "/recorded/file"}},
       {"hmd-calibration",
        {"/rigid_rms_mm", "/tre_at_patient_mm", "/transforms/HoloLensToTracker", "/cube_trial/compensated/mean_rms_mm",
         "/cube_trial/uncompensated/mean_rms_mm", "/cube_trial/pointer/mean_rms_mm", "/cube_trial/noise_model",
@@ -63,6 +64,23 @@ TEST(CliTrial, ShortTrialReportHasEveryFigure) {
       EXPECT_TRUE(steps[step]["figures"].contains(nlohmann::json::json_pointer(p))) << p;
     }
   }
+  // The live steps acquired from the simulated room, and the room's scorer judged them from outside; the truth
+  // stays in the room's folder, never in the session.
+  const auto& room = report["simulated_room"];
+  ASSERT_TRUE(room["used"].get<bool>()) << room.dump();
+  EXPECT_EQ(steps["registration"]["figures"]["source"], "plus");
+  EXPECT_TRUE(steps["registration"]["figures"]["simulated"].get<bool>());
+  EXPECT_FALSE(steps["registration"]["figures"].contains("simulation_truth"));
+  EXPECT_EQ(steps["registration"]["figures"]["landmarks"]["matched"], 8);
+  ASSERT_TRUE(room["score"]["scored"].contains("registration")) << room["score"].dump();
+  EXPECT_TRUE(room["score"]["scored"]["registration"].contains("error_at_planned_screws"));
+  EXPECT_TRUE(room["score"]["scored"].contains("pivot_calibration")) << room["score"].dump();
+  EXPECT_FALSE(room["score"]["scored"].contains("robot_calibration"))
+      << "the in-process robot calibration has its own world: this room's truth cannot judge it";
+  EXPECT_TRUE(std::filesystem::exists(dir / "room" / "truth.json"));
+  EXPECT_EQ(slurpFile(dir / "session" / "session.json").find("fiducials_ct\""), std::string::npos);
+  EXPECT_NE(steps["robot-placement"]["figures"]["registration_error"].get<std::string>().find("not included"),
+            std::string::npos);
   // The simulated tracker loss stopped the robot, with the reason.
   EXPECT_TRUE(steps["navigation"]["figures"]["robot_stopped"].get<bool>());
   // Paper 001 Fig. 7's ordering (compensated beats the pointer method) and a
@@ -95,10 +113,24 @@ TEST(CliTrial, ShortTrialReportHasEveryFigure) {
   EXPECT_NE(page.str().find("1.64 &plusmn; 0.48"), std::string::npos);
   EXPECT_NE(page.str().find("3.20 &plusmn; 1.60"), std::string::npos);
   EXPECT_NE(page.str().find("noise model: "), std::string::npos);
+  EXPECT_NE(page.str().find("scored from outside"), std::string::npos);
   for (const auto& image : report["images"]) {
     EXPECT_NE(page.str().find("<img src=\"" + image.get<std::string>()), std::string::npos);
   }
   EXPECT_TRUE(std::filesystem::exists(dir / "session" / "session.json"));
+}
+
+TEST(CliTrial, WithoutTheRoomTheRegistrationIsSimulatedInProcessAndTheReportSaysSo) {
+  const auto dir = scratchDirectory("trial-no-room") / "report";
+  const auto r = runCli({"trial", "--out", dir.string(), "--no-room", "--no-snapshots", "--navigation-s", "0.5",
+                         "--deformation-cases", "1", "--hmd-trials", "0", "--checkerboard-poses", "0",
+                         "--placement-trials", "0", "--json"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto report = nlohmann::json::parse(r.out);
+  EXPECT_FALSE(report["simulated_room"]["used"].get<bool>());
+  EXPECT_FALSE(report["steps"].contains("pivot-calibration"));
+  EXPECT_EQ(report["steps"]["registration"]["figures"]["source"], "simulated");
+  EXPECT_NE(slurpFile(dir / "index.html").find("simulated in-process"), std::string::npos);
 }
 
 TEST(CliTrial, RefusesANonEmptyReportFolder) {

@@ -20,13 +20,17 @@ void registerTrialVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs) {
     int hmd_trials = 3;
     int checkerboard_poses = 5;
     int placement_trials = 2;
+    bool no_room = false;
+    std::string scenario;
   };
   auto args = std::make_shared<TrialArgs>();
   auto* sub = app.add_subcommand(
       "trial",
-      "The whole phantom trial, headless: devices (simulated tracker), US spatial and temporal calibration (PLUS "
-      "recording), robot and HMD calibration (simulated), registration on the generated cervical phantom, "
-      "navigation with deformation tracking and a simulated tracker loss, robot placement; writes a report folder");
+      "The whole phantom trial, headless: the simulated operating room (mrsns-sim) started as a child process for "
+      "the live stylus pivot calibration and patient registration (landmarks touched, bone surface swept) and "
+      "`mrsns-sim score` judging them; US spatial and temporal calibration (PLUS recording), robot and HMD "
+      "calibration (simulated in-process), navigation with deformation tracking and a simulated tracker loss, "
+      "robot placement; writes a report folder");
   sub->add_option("--out", args->out, "report folder (absent or empty)")->capture_default_str();
   sub->add_option("--seed", args->seed, "random seed of the simulated devices")->capture_default_str();
   sub->add_option("--navigation-s", args->navigation_s, "navigation run time, s")
@@ -50,6 +54,11 @@ void registerTrialVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs) {
       ->capture_default_str();
   sub->add_flag("--no-snapshots", args->no_snapshots, "write no PNG snapshots (they need an X display)");
   sub->add_flag("--progress", args->progress, "print progress lines on stderr");
+  sub->add_flag("--no-room", args->no_room,
+                "no simulated operating room: the pivot calibration is left out and the registration simulated "
+                "in-process");
+  sub->add_option("--scenario", args->scenario, "the room's scenario (default: the bundled default.json)")
+      ->check(CLI::ExistingFile);
   addJsonFlag(*sub, options);
   verbs.emplace_back(sub, [args]() -> Report {
     workflow::TrialOptions trial;
@@ -61,8 +70,13 @@ void registerTrialVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs) {
     trial.checkerboard_poses = args->checkerboard_poses;
     trial.placement_trials = args->placement_trials;
     trial.write_snapshots = !args->no_snapshots;
+    trial.simulated_room = !args->no_room;
+    trial.scenario = args->scenario;
     if (args->progress) {
-      trial.context.progress = [](double f, const std::string& message) {
+      // A live step reports ten times a second; a line per change is enough to follow it.
+      trial.context.progress = [last = std::string()](double f, const std::string& message) mutable {
+        if (message == last) return;
+        last = message;
         std::cerr << static_cast<int>(f * 100.0) << "% " << message << "\n";
       };
     }
@@ -78,6 +92,16 @@ void registerTrialVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs) {
          << " s; report " << result.index_html.string() << "\n";
     for (const auto& [name, s] : result.report["steps"].items()) {
       text << "  " << name << ": " << s.value("status", "?") << " - " << s.value("summary", "") << "\n";
+    }
+    const auto& room = result.report["simulated_room"];
+    if (room.value("used", false)) {
+      text << "  simulated operating room: " << room.value("scenario", "") << "\n";
+      if (room.contains("score")) {
+        for (const auto& [name, s] : room["score"]["scored"].items()) text << "    scored " << name << ": " << s.dump() << "\n";
+      }
+      if (room.contains("score_error")) text << "    score failed: " << room["score_error"].get<std::string>() << "\n";
+    } else if (room.contains("why_not")) {
+      text << "  simulated operating room not used: " << room["why_not"].get<std::string>() << "\n";
     }
     for (const auto& image : result.report["images"]) text << "  snapshot " << image.get<std::string>() << "\n";
     if (!result.report["snapshots_skipped"].get<std::string>().empty()) {

@@ -3,10 +3,12 @@
 
 #include <chrono>
 #include <fstream>
+#include <memory>
 
 #include "mrsns/core/data_dir.h"
 #include "mrsns/core/error.h"
 #include "mrsns/core/log.h"
+#include "simulated_room_process.h"
 #include "time_text.h"
 
 namespace mrsns::workflow {
@@ -34,6 +36,7 @@ struct PlannedStep {
   std::string name;
   nlohmann::json params;
   bool needs_plus_data = false;
+  bool last_in_room = false;  ///< the room stops after this step (its live acquisitions are done)
 };
 
 }  // namespace
@@ -57,17 +60,62 @@ TrialResult runPhantomTrial(const TrialOptions& options) {
     navigation["dropout_start_s"] = options.navigation_s * 0.5;
     navigation["dropout_duration_s"] = std::min(0.5, options.navigation_s * 0.25);
   }
-  const std::vector<PlannedStep> plan = {
-      {"connect-devices", {{"duration_s", 0.5}, {"seed", seed}}},
-      {"us-spatial-calibration", nlohmann::json::object(), true},
-      {"us-temporal-calibration", nlohmann::json::object(), true},
-      {"robot-calibration", {{"seed", seed}}},
-      {"registration", {{"seed", seed}}},
-      {"hmd-calibration",
-       {{"seed", seed}, {"cube_trials", options.hmd_cube_trials}, {"checkerboard_poses", options.checkerboard_poses}}},
-      {"navigation", navigation},
-      {"robot-placement", {{"seed", seed}, {"placement_trials", options.placement_trials}}},
-  };
+  // The room: started first, since its timeline (pivot, then the fiducials, then the bone surface) runs from
+  // its start; stopped once the live steps are done.
+  std::unique_ptr<detail::SimulatedRoomProcess> room;
+  nlohmann::json room_report = {{"used", false}};
+  const fs::path room_dir = options.out / "room";
+  if (options.simulated_room) {
+    const fs::path program = detail::findSimProgram();
+    const fs::path scenario =
+        options.scenario.empty() ? resourceDirectory() / "scenarios" / "default.json" : options.scenario;
+    room_report["scenario"] = scenario.string();
+    if (program.empty()) {
+      room_report["why_not"] = "mrsns-sim was not found beside mrsns-cli (or in MRSNS_SIM)";
+    } else {
+      fs::create_directories(room_dir);
+      options.context.report(0.0, "starting the simulated operating room (" + program.string() + ")");
+      try {
+        room = std::make_unique<detail::SimulatedRoomProcess>(program, scenario, room_dir / "truth.json",
+                                                              room_dir / "sim.log");
+        std::string noise_model;
+        try {
+          std::ifstream in(scenario);
+          noise_model = nlohmann::json::parse(in).value("description", "");
+        } catch (const nlohmann::json::exception&) {
+          // mrsns-sim read it already; a description is only for the report.
+        }
+        room_report = {{"used", true},
+                       {"noise_model", noise_model},
+                       {"program", program.string()},
+                       {"scenario", scenario.string()},
+                       {"endpoints", room->endpoints()}};
+      } catch (const Error& e) {
+        room_report["why_not"] = e.what();
+      }
+    }
+    if (!room) session.log("warn", "simulated operating room not used: " + room_report.value("why_not", ""));
+  }
+  std::vector<PlannedStep> plan = {{"connect-devices", {{"duration_s", 0.5}, {"seed", seed}}}};
+  if (room) {
+    const nlohmann::json at_room = {{"source", "plus"}, {"host", room->host()}, {"port", room->plusPort()}};
+    nlohmann::json pivot = at_room;
+    pivot["duration_s"] = 60.0;
+    nlohmann::json registration = at_room;
+    registration["duration_s"] = 120.0;
+    plan.push_back({"pivot-calibration", pivot});
+    plan.push_back({"registration", registration, false, true});
+  }
+  plan.push_back({"us-spatial-calibration", nlohmann::json::object(), true});
+  plan.push_back({"us-temporal-calibration", nlohmann::json::object(), true});
+  plan.push_back({"robot-calibration", {{"seed", seed}}});
+  if (!room) plan.push_back({"registration", {{"source", "simulated"}, {"seed", seed}}});
+  plan.push_back({"hmd-calibration",
+                  {{"seed", seed},
+                   {"cube_trials", options.hmd_cube_trials},
+                   {"checkerboard_poses", options.checkerboard_poses}}});
+  plan.push_back({"navigation", navigation});
+  plan.push_back({"robot-placement", {{"seed", seed}, {"placement_trials", options.placement_trials}}});
   const bool have_plus = findDataFile("plus/fCal_Test_Calibration_3NWires.igs.mha").has_value();
   TrialResult result;
   result.ok = true;
@@ -102,6 +150,19 @@ TrialResult runPhantomTrial(const TrialOptions& options) {
       session.log("error", step.name + ": " + e.what());
       result.ok = false;
     }
+    if (step.last_in_room && room) room_report["exit_code"] = room->stop();
+  }
+  if (room) {
+    // Scored from outside: the scorer reads the truth; this process only keeps what it prints.
+    if (!room_report.contains("exit_code")) room_report["exit_code"] = room->stop();
+    options.context.report(1.0, "scoring the session against the room's truth (mrsns-sim score)");
+    try {
+      room_report["score"] = detail::scoreWithSim(detail::findSimProgram(), session.folder(), room_dir / "truth.json",
+                                                  room_dir / "sim.log");
+    } catch (const Error& e) {
+      room_report["score_error"] = e.what();
+      result.ok = false;
+    }
   }
   std::vector<std::string> images;
   std::string snapshots_skipped;
@@ -129,6 +190,7 @@ TrialResult runPhantomTrial(const TrialOptions& options) {
             {"session", "session"},
             {"steps", steps},
             {"paper", paperReferenceFigures()},
+            {"simulated_room", room_report},
             {"images", images},
             {"snapshots_skipped", snapshots_skipped},
             {"log", session.state()["log"]}};

@@ -123,6 +123,8 @@ std::string renderTrialHtml(const nlohmann::json& report) {
   const auto board = at(steps, "hmd-calibration/figures/checkerboard_trial");
   const auto robot = at(steps, "robot-placement/figures/module_trial");
   const std::string cube_note = noiseNote("hmd::runCubeTrial", at(cube, "noise_model"));
+  const bool live_registration = at(steps, "registration/figures/source").is_string() &&
+                                 at(steps, "registration/figures/source").get<std::string>() != "simulated";
   const std::vector<Row> rows = {
       {"US calibration, validation 3D reprojection (mm)",
        number(at(steps, "us-spatial-calibration" + fig + "validation/reprojection_3d_mean_mm")),
@@ -134,9 +136,16 @@ std::string renderTrialHtml(const nlohmann::json& report) {
        number(at(steps, "us-temporal-calibration" + fig + "validation_reprojection_3d_mean_mm_at_lag")), "&ndash;",
        "the lag estimated from the calibration sweep, applied to both recordings"},
       {"Registration, landmark FRE (mm)", number(at(steps, "registration" + fig + "landmarks/fre_rms_mm")), "&ndash;",
-       "8 fiducial screws, 0.5 mm FLE"},
-      {"Registration, TRE at the planned screws (mm, RMS)", number(at(steps, "registration" + fig + "surface/tre/rms")),
-       "&ndash;", "landmarks + ICP on the posterior bone"},
+       live_registration ? "fiducial screws touched with the tracked stylus in the simulated room (noise model below)"
+                         : "8 fiducial screws, 0.5 mm FLE (in-process simulated patient)"},
+      {live_registration ? "Registration, TRE at the planned screws' entries and targets (mm, mean)"
+                         : "Registration, TRE at the planned screws (mm, RMS)",
+       live_registration ? number(at(report, "simulated_room/score/scored/registration/error_at_planned_screws/mean_mm"))
+                         : number(at(steps, "registration" + fig + "surface/tre/rms")),
+       "&ndash;",
+       live_registration ? "landmarks + ICP on the swept bone; scored from outside by mrsns-sim score against the "
+                           "room's truth"
+                         : "landmarks + ICP on the posterior bone"},
       {"Robot calibration, error at the patient (mm)",
        number(at(steps, "robot-calibration" + fig + "tre_at_patient_mm")), "&ndash;", "simulated UR5 + tracker"},
       {"MR (HMD) calibration of this session, cube fit RMS (mm)",
@@ -196,7 +205,40 @@ std::string renderTrialHtml(const nlohmann::json& report) {
     h << "<tr><td>" << r.what << "</td><td>" << r.ours << "</td><td>" << r.reference << "</td><td>" << r.note
       << "</td></tr>\n";
   }
-  h << "</table>\n<h2>Steps</h2>\n<table><tr><th>Step</th><th>Status</th><th>Summary</th></tr>\n";
+  h << "</table>\n";
+  const auto room = at(report, "simulated_room");
+  h << "<h2>Simulated operating room (mrsns-sim), scored from outside</h2>\n";
+  if (room.is_object() && room.value("used", false)) {
+    h << "<p>Scenario " << escape(room.value("scenario", "")) << ". Noise model: "
+      << escape(room.value("noise_model", "")) << "</p>\n<p>The live steps acquired from it over its protocols; "
+      << "<code>mrsns-sim score</code> judged their results against the truth it kept to itself. Simulated "
+         "figures: they are not a physical experiment.</p>\n<table><tr><th>Result</th><th>Error</th>"
+         "<th>Definition</th></tr>\n";
+    const auto scored = at(room, "score/scored");
+    for (const auto& [name, item] : scored.items()) {
+      nlohmann::json figures = item;
+      figures.erase("definition");
+      h << "<tr><td>" << escape(name) << "</td><td>" << compact(figures) << "</td><td>"
+        << escape(item.value("definition", "")) << "</td></tr>\n";
+    }
+    h << "</table>\n";
+    if (room.contains("score_error")) h << "<p class=\"failed\">" << escape(room.value("score_error", "")) << "</p>\n";
+    const auto not_scored = at(room, "score/not_scored");
+    if (not_scored.is_array() && !not_scored.empty()) {
+      h << "<p>Not scored: ";
+      bool first = true;
+      for (const auto& n : not_scored) {
+        h << (first ? "" : "; ") << escape(n.is_string() ? n.get<std::string>() : n.dump());
+        first = false;
+      }
+      h << ".</p>\n";
+    }
+  } else {
+    h << "<p class=\"skipped\">Not used"
+      << (room.is_object() && room.contains("why_not") ? ": " + escape(room.value("why_not", "")) : std::string())
+      << ". The registration was simulated in-process.</p>\n";
+  }
+  h << "<h2>Steps</h2>\n<table><tr><th>Step</th><th>Status</th><th>Summary</th></tr>\n";
   for (const auto& [name, s] : steps.items()) {
     const std::string status = s.value("status", "?");
     h << "<tr><td>" << escape(name) << "</td><td class=\"" << escape(status) << "\">" << escape(status) << "</td><td>"

@@ -24,6 +24,14 @@ struct TrialOptions {
   int deformation_cases = 3;
   /// Tracker loss during navigation (the supervisor must stop the robot).
   bool simulate_tracker_loss = true;
+  /// The simulated operating room (mrsns-sim, a child process) the live
+  /// steps acquire from (the stylus pivot calibration, the patient
+  /// registration); `mrsns-sim score` judges them against its truth, kept in
+  /// <out>/room/ outside the session. Without it (or without mrsns-sim) those
+  /// steps fall back to the in-process simulated patient and the report says so.
+  bool simulated_room = true;
+  /// The room's scenario; empty: resources/scenarios/default.json.
+  std::filesystem::path scenario;
   StepContext context;
   /// The module trials run inside the steps (their cost): paper 001 Fig. 7
   /// cube trials per method, paper 000 checkerboard poses, robot placement
