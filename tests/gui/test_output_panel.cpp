@@ -26,6 +26,20 @@ TEST(OutputPanel, FormatsFiguresWithTheUnitOfTheirSuffix) {
   EXPECT_EQ(formatFigure("nan_mm", std::nan("")), QStringLiteral("—"));
 }
 
+TEST(OutputPanel, ALiveRegistrationShowsItsPredictedTreAndNoStaleOne) {
+  mrsns::test::guiApp();
+  OutputPanel panel;
+  panel.showStepResult("registration", "ok", {{"surface", {{"tre", {{"rms", 0.04}}}}}});
+  EXPECT_EQ(panel.readout("tre"), QStringLiteral("0.040 mm"));
+  // Acquired from the devices there is no truth to measure the TRE against: the predicted one, said so.
+  panel.showStepResult("registration", "ok",
+                       {{"landmarks", {{"fre_rms_mm", 0.23}}}, {"tre_predicted_at_screws", {{"rms", 0.137}}}});
+  EXPECT_EQ(panel.readout("fre"), QStringLiteral("0.230 mm"));
+  EXPECT_EQ(panel.readout("tre"), QStringLiteral("0.137 mm (predicted)"));
+  panel.showStepResult("registration", "failed", {{"landmarks", {{"matched", 2}}}});
+  EXPECT_EQ(panel.readout("tre"), QStringLiteral("—")) << "not the earlier registration's";
+}
+
 TEST(OutputPanel, StepFiguresReachReadoutsTreeAndPlots) {
   mrsns::test::guiApp();
   OutputPanel panel;

@@ -1,6 +1,7 @@
 // The Devices menu drives the simulated operating room as a user would: start
 // mrsns-sim from the GUI, see the SIMULATED banner, connect to it as to a
-// PlusServer, find every tool and the step marked simulated, stop it.
+// PlusServer, find every tool and the step marked simulated, calibrate the
+// stylus and register the patient live from the Workflow menu, stop it.
 #include <QAction>
 #include <QLabel>
 #include <QTest>
@@ -63,6 +64,25 @@ TEST_F(SimulatedRoomTest, StartConnectAndStopFromTheDevicesMenu) {
   EXPECT_TRUE(pivot_status->text().contains("simulated")) << pivot_status->text().toStdString();
   EXPECT_TRUE(window->saveScreenshot(
       QString::fromStdString((mrsns::test::guiArtifactDir() / "main_window_simulated_pivot.png").string())));
+
+  // The patient registration from the Workflow menu, live on the same PlusServer: the scenario's operator
+  // touches the phantom's eight fiducial screws from 18 s on, then sweeps the exposed bone (54-74 s); the step
+  // prepares the CT while it already records, matches the touches to the fiducials it finds in the CT, and
+  // ends itself once the sweep is done.
+  auto* registration = window->findChild<QAction*>("actionStep_registration");
+  ASSERT_NE(registration, nullptr);
+  registration->trigger();
+  ASSERT_TRUE(mrsns::test::waitUntil([&] { return !window->taskRunning(); }, 150000));
+  const auto after_registration = window->sessionState();
+  const auto& reg = after_registration["steps"]["registration"];
+  ASSERT_EQ(reg.value("status", ""), "ok") << reg.dump() << messages();
+  EXPECT_EQ(reg["figures"]["source"], "plus");
+  EXPECT_TRUE(reg["figures"]["simulated"].get<bool>());
+  EXPECT_TRUE(reg["figures"]["recorded"]["complete"].get<bool>());
+  EXPECT_EQ(reg["figures"]["landmarks"]["matched"], 8);
+  EXPECT_FALSE(reg["figures"].contains("simulation_truth"));
+  EXPECT_TRUE(window->saveScreenshot(
+      QString::fromStdString((mrsns::test::guiArtifactDir() / "main_window_simulated_registration.png").string())));
 
   // Connected to a PlusServer, the ultrasound calibrations acquire from it: the temporal one records both
   // streams live (the default scenario sweeps the probe over the N-wire phantom, not the up/down motion over a

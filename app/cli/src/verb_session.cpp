@@ -228,7 +228,10 @@ void registerSessionVerbs(CLI::App& app, GlobalOptions& options, VerbList& verbs
     auto session = workflow::Session::open(args->folder);
     workflow::StepContext context;
     if (args->progress) {
-      context.progress = [](double f, const std::string& message) {
+      // A live step reports ten times a second; a line per change is enough to follow it.
+      context.progress = [last = std::string()](double f, const std::string& message) mutable {
+        if (message == last) return;
+        last = message;
         std::cerr << static_cast<int>(f * 100.0) << "% " << message << "\n";
       };
     }

@@ -301,7 +301,17 @@ void OutputPanel::headlineFromFigures(const std::string& step, const nlohmann::j
   };
   if (step == "registration") {
     showMm(QStringLiteral("fre"), {"landmarks.fre_rms_mm"}, {"fre"});
-    showMm(QStringLiteral("tre"), {"surface.tre.rms"}, {"tre.rms", "tre"});
+    // A registration acquired from the devices cannot measure its TRE (no truth): it predicts it at the
+    // planned screws from its fiducials' scatter, and says so.
+    setReadout(QStringLiteral("tre"), QStringLiteral("—"));
+    if (figures.is_object() && figures.contains("tre_predicted_at_screws") &&
+        figures["tre_predicted_at_screws"].value("rms", -1.0) >= 0.0) {
+      setReadout(QStringLiteral("tre"),
+                 QString::number(figures["tre_predicted_at_screws"]["rms"].get<double>(), 'f', 3) +
+                     tr(" mm (predicted)"));
+    } else {
+      showMm(QStringLiteral("tre"), {"surface.tre.rms"}, {"tre.rms", "tre"});
+    }
   } else if (contains(step, "pivot")) {
     showMm(QStringLiteral("pivot"), {"rms_mm"}, {"rms", "error"});
   } else if (step == "us-spatial-calibration") {
