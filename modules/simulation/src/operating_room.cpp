@@ -442,6 +442,14 @@ void OperatingRoom::start() {
   plus_options.port = s.tracker.port;
   plus_options.max_header_version = s.tracker.max_header_version;
   plus_options.send_valid_transforms_only = s.tracker.send_valid_transforms_only;
+  // Each room's controller has its own serial number (digits, as a real one's), told to the workstation
+  // with the tracker's identity: it then never drives a controller of another room, or a real arm.
+  std::string serial;
+  if (s.robot.enabled) {
+    std::random_device device;
+    serial = "2018" + std::to_string(1000000 + device() % 9000000);
+    plus_options.robot_serial = serial;
+  }
   impl_->plus = std::make_unique<PlusServerEmulator>(plus_options);
   impl_->plus->start();
   if (s.robot.enabled) {
@@ -452,6 +460,7 @@ void OperatingRoom::start() {
     ur.secondary_port = s.robot.secondary_port;
     ur.realtime_port = s.robot.realtime_port;
     for (int i = 0; i < 6; ++i) ur.arm.q0[i] = s.robot.start_joints[static_cast<std::size_t>(i)];
+    ur.serial_number = serial;
     try {
       impl_->ur = std::make_unique<robot::UrSimulator>(ur);
     } catch (...) {

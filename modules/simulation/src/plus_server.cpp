@@ -66,7 +66,9 @@ struct PlusServerEmulator::Impl {
       reply = igtlink::makeMessage("RTS_TDATA", m.header.device_name, igtlink::RtsStatus{0});
     } else if (type == "GET_STATUS") {
       igtlink::StatusContent status;
-      status.message = "mrsns-sim (simulated PlusServer)";
+      status.message = options.robot_serial.empty()
+                           ? std::string("mrsns-sim (simulated PlusServer)")
+                           : "mrsns-sim (simulated PlusServer; UR controller serial " + options.robot_serial + ")";
       reply = igtlink::makeMessage("", status);
     }
     std::lock_guard lock(mutex);

@@ -182,6 +182,15 @@ std::string scoreSession(const std::filesystem::path& session_dir, const std::fi
           {"translation_error_mm", (e.translation() - t.translation()).norm()},
           {"rotation_error_deg", rotationAngleBetween(e.linear(), t.linear()) * 180.0 / M_PI},
           {"error_500mm_mm", ((e * Eigen::Vector3d(0, 0, 500) - t * Eigen::Vector3d(0, 0, 500))).norm()}};
+      if (const Json* m = recordedTransform(session, "robot-calibration", "MarkerToFlange");
+          m != nullptr && st.contains("MarkerToFlange")) {
+        const Eigen::Isometry3d em(matrix(*m, "session MarkerToFlange"));
+        const Eigen::Isometry3d tm(matrix(st["MarkerToFlange"], "truth MarkerToFlange"));
+        scored["robot_calibration"]["marker_to_flange_translation_error_mm"] =
+            (em.translation() - tm.translation()).norm();
+        scored["robot_calibration"]["marker_to_flange_rotation_error_deg"] =
+            rotationAngleBetween(em.linear(), tm.linear()) * 180.0 / M_PI;
+      }
     }
   } else {
     not_scored.push_back(

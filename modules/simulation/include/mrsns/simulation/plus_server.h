@@ -25,6 +25,9 @@ struct PlusServerOptions {
   std::uint16_t port = 18944;  ///< 0: a free port
   int max_header_version = 2;
   bool send_valid_transforms_only = true;
+  /// The serial number of this room's UR controller, told in the STATUS answer to GET_STATUS, so a
+  /// workstation can refuse to drive any other controller while its tracker is this simulated one.
+  std::string robot_serial;
 };
 
 struct MeasuredTool {
