@@ -34,7 +34,9 @@ TEST(CliTrial, ShortTrialReportHasEveryFigure) {
        {"/validation/reprojection_3d_mean_mm", "/calibration/reprojection_3d_mean_mm", "/pixel_spacing_mm",
         "/transforms/ImageToProbe"}},
       {"us-temporal-calibration", {"/tracker_lag_ms", "/curve"}},
-      {"robot-calibration", {"/fre_rms_mm", "/tre_at_patient_mm", "/transforms/RobotBaseToTracker"}},
+      {"robot-calibration",
+       {"/residual_rms_mm", "/validation_error_mm/mean", "/transforms/RobotBaseToTracker", "/transforms/MarkerToFlange",
+        "/recorded/stations_file"}},
       {"pivot-calibration", {"/tip_marker_mm", "/rms_mm", "/recorded/file"}},
       {"registration",
        {"/landmarks/fre_rms_mm", "/landmarks/matched", "/surface/rms_mm", "/tre_predicted_at_screws/rms", "/targets",
@@ -75,11 +77,15 @@ TEST(CliTrial, ShortTrialReportHasEveryFigure) {
   ASSERT_TRUE(room["score"]["scored"].contains("registration")) << room["score"].dump();
   EXPECT_TRUE(room["score"]["scored"]["registration"].contains("error_at_planned_screws"));
   EXPECT_TRUE(room["score"]["scored"].contains("pivot_calibration")) << room["score"].dump();
-  EXPECT_FALSE(room["score"]["scored"].contains("robot_calibration"))
-      << "the in-process robot calibration has its own world: this room's truth cannot judge it";
+  EXPECT_TRUE(room["score"]["scored"].contains("robot_calibration")) << "the room's UR, driven by the workstation";
+  EXPECT_EQ(steps["robot-calibration"]["figures"]["source"], "ur");
+  EXPECT_FALSE(room["score"]["scored"].contains("us_spatial_calibration"))
+      << "calibrated on the PLUS recording of a real probe: this room's truth cannot judge it";
   EXPECT_TRUE(std::filesystem::exists(dir / "room" / "truth.json"));
   EXPECT_EQ(slurpFile(dir / "session" / "session.json").find("fiducials_ct\""), std::string::npos);
   EXPECT_NE(steps["robot-placement"]["figures"]["registration_error"].get<std::string>().find("not included"),
+            std::string::npos);
+  EXPECT_NE(steps["robot-placement"]["figures"]["robot_calibration_error"].get<std::string>().find("not included"),
             std::string::npos);
   // The simulated tracker loss stopped the robot, with the reason.
   EXPECT_TRUE(steps["navigation"]["figures"]["robot_stopped"].get<bool>());

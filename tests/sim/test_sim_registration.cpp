@@ -29,7 +29,7 @@ using Json = nlohmann::json;
 constexpr double kTouchStart_s = 16.0;  // pivot 0.5-10.5 s, then a hold while the workstation prepares its CT
 constexpr double kTouch_s = 0.8 + 0.5 + 1.8 + 0.5;
 
-std::filesystem::path writeScenario(const std::filesystem::path& dir, int seed, const std::string& misplaced) {
+std::filesystem::path writeRegistrationScenario(const std::filesystem::path& dir, int seed, const std::string& misplaced) {
   const auto file = dir / "registration.json";
   std::ofstream(file) << R"({"format": "mrsns-scenario/1", "name": "registration", "seed": )" << seed << R"(,
     "tracker": {"port": 0, "noise": {"position_rms_mm": 0.12, "orientation_rms_deg": 0.05}},
@@ -64,7 +64,7 @@ RegistrationRun runRegistration(const std::string& name, int seed, const std::st
   RegistrationRun run;
   const auto session = dir / "session";
   const auto truth = dir / "truth.json";
-  SimProcess sim({"run", "--scenario", writeScenario(dir, seed, misplaced).string(), "--truth", truth.string(),
+  SimProcess sim({"run", "--scenario", writeRegistrationScenario(dir, seed, misplaced).string(), "--truth", truth.string(),
                   "--ready-file", (dir / "ready.json").string(), "--any-ports", "--json"});
   const auto ready = sim.waitReady(dir / "ready.json");
   EXPECT_FALSE(ready.is_null()) << sim.wait().err;

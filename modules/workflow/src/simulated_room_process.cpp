@@ -93,8 +93,9 @@ SimulatedRoomProcess::SimulatedRoomProcess(const fs::path& program, const fs::pa
   const fs::path ready = truth.parent_path() / "ready.json";
   fs::remove(ready);
   pid_ = spawn(program,
-               {"run", "--scenario", scenario.string(), "--truth", truth.string(), "--any-ports", "--ready-file",
-                ready.string(), "--json"},
+               // Until stopped: the trial's steps take as long as they take, the room waits for them.
+               {"run", "--scenario", scenario.string(), "--truth", truth.string(), "--any-ports", "--duration", "0",
+                "--ready-file", ready.string(), "--json"},
                log);
   const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(ready_timeout_s);
   while (!fs::exists(ready)) {

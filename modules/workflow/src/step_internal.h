@@ -62,6 +62,8 @@ StepResult runUsTemporalCalibration(Session& session, const Json& params, const 
 /// us-temporal-calibration with source=plus: the up/down motion over a flat target recorded live.
 StepResult runLiveTemporalCalibration(Session& session, const Params& p, const StepContext& context);
 StepResult runRobotCalibration(Session& session, const Json& params, const StepContext& context);
+/// robot-calibration with source=ur: stations driven on a UR controller, seen by the session's tracker.
+StepResult runLiveRobotCalibration(Session& session, const Json& params, const StepContext& context);
 StepResult runRegistration(Session& session, const Json& params, const StepContext& context);
 /// registration with source=plus (live from the tracker) or file (a recording of it).
 StepResult runAcquiredRegistration(Session& session, const Json& params, const StepContext& context);

@@ -41,8 +41,23 @@ Eigen::Isometry3d trackerTPatient() {
 
 }  // namespace
 
-StepResult runRobotCalibration(Session& /*session*/, const Json& params, const StepContext& context) {
-  const Params p("robot-calibration", params, {"seed", "poses", "tracker_noise_mm", "robot_repeatability_mm"});
+StepResult runRobotCalibration(Session& session, const Json& params, const StepContext& context) {
+  // source=ur: the stations driven on a UR controller and seen by the session's tracker; a UR port named in
+  // the parameters means that too. Otherwise the in-process simulated robot and tracker below.
+  std::string source = "simulated";
+  for (const char* key : {"ur_host", "ur_rtde_port", "ur_script_port", "ur_dashboard_port"}) {
+    if (params.is_object() && params.contains(key)) source = "ur";
+  }
+  if (params.is_object() && params.contains("source") && params["source"].is_string()) {
+    source = params["source"].get<std::string>();
+  }
+  if (source == "ur") return runLiveRobotCalibration(session, params, context);
+  if (source != "simulated") {
+    throw InvalidArgumentError("robot-calibration: source must be ur (drive a UR controller) or simulated, not '" +
+                               source + "'");
+  }
+  const Params p("robot-calibration", params,
+                 {"source", "seed", "poses", "tracker_noise_mm", "robot_repeatability_mm"});
   const auto seed = static_cast<std::uint64_t>(p.integer("seed", 1));
   const int poses = p.integer("poses", 12);
   const double tracker_noise = p.number("tracker_noise_mm", 0.25);
@@ -190,8 +205,10 @@ StepResult runRobotPlacement(Session& session, const Json& params, const StepCon
                              : est_patient_T_ct;
   const Eigen::Isometry3d est_tracker_T_base =
       recorded(session, "robot-calibration", "transforms", "RobotBaseToTracker");
+  const bool robot_simulated = session.step("robot-calibration")["figures"].contains("simulation_truth");
   const Eigen::Isometry3d true_tracker_T_base =
-      recorded(session, "robot-calibration", "simulation_truth", "RobotBaseToTracker");
+      robot_simulated ? recorded(session, "robot-calibration", "simulation_truth", "RobotBaseToTracker")
+                      : est_tracker_T_base;
   const auto paths = session.step("registration")["figures"]["paths"];
   Simulation sim(seed * 32452843 + 17);
   std::vector<double> entry_errors, target_errors, angle_errors;
@@ -237,7 +254,11 @@ StepResult runRobotPlacement(Session& session, const Json& params, const StepCon
                      registration_simulated
                          ? "included (the simulated registration's own patient)"
                          : "not included: the registration was acquired from the devices and has no truth here "
-                           "(mrsns-sim score judges it)"}};
+                           "(mrsns-sim score judges it)"},
+                    {"robot_calibration_error",
+                     robot_simulated ? "included (the simulated robot calibration's own robot)"
+                                     : "not included: the robot calibration was acquired from the devices and has "
+                                       "no truth here (mrsns-sim score judges it)"}};
   if (placement_trials > 0) {
     checkCancel(context);
     context.report(0.9, "robot module placement trial (UR5 simulator, control loop, supervisor)");

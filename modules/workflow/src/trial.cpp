@@ -104,12 +104,23 @@ TrialResult runPhantomTrial(const TrialOptions& options) {
     nlohmann::json registration = at_room;
     registration["duration_s"] = 120.0;
     plan.push_back({"pivot-calibration", pivot});
-    plan.push_back({"registration", registration, false, true});
+    plan.push_back({"registration", registration});
+    // The room's UR: its stations are driven by the workstation, at any time of the room's timeline.
+    nlohmann::json robot = at_room;
+    robot["source"] = "ur";
+    const auto ports = room->endpoints().value("robot", nlohmann::json::object());
+    robot["ur_rtde_port"] = ports.value("rtde", 30004);
+    robot["ur_script_port"] = ports.value("realtime", 30003);
+    robot["ur_dashboard_port"] = ports.value("dashboard", 29999);
+    robot["seed"] = seed;
+    plan.push_back({"robot-calibration", robot, false, true});
   }
   plan.push_back({"us-spatial-calibration", nlohmann::json::object(), true});
   plan.push_back({"us-temporal-calibration", nlohmann::json::object(), true});
-  plan.push_back({"robot-calibration", {{"seed", seed}}});
-  if (!room) plan.push_back({"registration", {{"source", "simulated"}, {"seed", seed}}});
+  if (!room) {
+    plan.push_back({"robot-calibration", {{"source", "simulated"}, {"seed", seed}}});
+    plan.push_back({"registration", {{"source", "simulated"}, {"seed", seed}}});
+  }
   plan.push_back({"hmd-calibration",
                   {{"seed", seed},
                    {"cube_trials", options.hmd_cube_trials},

@@ -123,6 +123,8 @@ std::string renderTrialHtml(const nlohmann::json& report) {
   const auto board = at(steps, "hmd-calibration/figures/checkerboard_trial");
   const auto robot = at(steps, "robot-placement/figures/module_trial");
   const std::string cube_note = noiseNote("hmd::runCubeTrial", at(cube, "noise_model"));
+  const bool live_robot = at(steps, "robot-calibration/figures/source").is_string() &&
+                          at(steps, "robot-calibration/figures/source").get<std::string>() == "ur";
   const bool live_registration = at(steps, "registration/figures/source").is_string() &&
                                  at(steps, "registration/figures/source").get<std::string>() != "simulated";
   const std::vector<Row> rows = {
@@ -146,8 +148,13 @@ std::string renderTrialHtml(const nlohmann::json& report) {
        live_registration ? "landmarks + ICP on the swept bone; scored from outside by mrsns-sim score against the "
                            "room's truth"
                          : "landmarks + ICP on the posterior bone"},
-      {"Robot calibration, error at the patient (mm)",
-       number(at(steps, "robot-calibration" + fig + "tre_at_patient_mm")), "&ndash;", "simulated UR5 + tracker"},
+      {live_robot ? "Robot calibration, RobotBaseToTracker error 500 mm in front of the base (mm)"
+                  : "Robot calibration, error at the patient (mm)",
+       live_robot ? number(at(report, "simulated_room/score/scored/robot_calibration/error_500mm_mm"))
+                  : number(at(steps, "robot-calibration" + fig + "tre_at_patient_mm")),
+       "&ndash;",
+       live_robot ? "stations driven on the room's UR controller, marker seen by its tracker; scored from outside"
+                  : "simulated UR5 + tracker (in-process)"},
       {"MR (HMD) calibration of this session, cube fit RMS (mm)",
        number(at(steps, "hmd-calibration" + fig + "rigid_rms_mm")), "&ndash;",
        noiseNote("calibration cube, Eq. 2-3", at(steps, "hmd-calibration" + fig + "noise_model"))},
