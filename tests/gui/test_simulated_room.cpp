@@ -1,7 +1,8 @@
 // The Devices menu drives the simulated operating room as a user would: start
 // mrsns-sim from the GUI, see the SIMULATED banner, connect to it as to a
 // PlusServer, find every tool and the step marked simulated, calibrate the
-// stylus and register the patient live from the Workflow menu, stop it.
+// stylus, register the patient and calibrate the robot live from the Workflow
+// menu, stop it.
 #include <QAction>
 #include <QLabel>
 #include <QTest>
@@ -84,11 +85,22 @@ TEST_F(SimulatedRoomTest, StartConnectAndStopFromTheDevicesMenu) {
   EXPECT_TRUE(window->saveScreenshot(
       QString::fromStdString((mrsns::test::guiArtifactDir() / "main_window_simulated_registration.png").string())));
 
+  // The robot calibration drives the room's UR controller (the one its tracker sees) through its stations.
+  EXPECT_EQ(window->deviceParams("robot-calibration").value("source", ""), "ur");
+  window->findChild<QAction*>("actionStep_robot-calibration")->trigger();
+  ASSERT_TRUE(mrsns::test::waitUntil([&] { return !window->taskRunning(); }, 150000));
+  const auto after_robot = window->sessionState();
+  const auto& robot = after_robot["steps"]["robot-calibration"];
+  ASSERT_EQ(robot.value("status", ""), "ok") << robot.dump() << messages();
+  EXPECT_EQ(robot["figures"]["source"], "ur");
+  EXPECT_TRUE(robot["figures"]["simulated"].get<bool>());
+  EXPECT_GE(robot["figures"]["poses"].get<int>(), 6);
+
   // Connected to a PlusServer, the ultrasound calibrations acquire from it: the temporal one records both
   // streams live (the default scenario sweeps the probe over the N-wire phantom, not the up/down motion over a
   // flat target it needs, so its outcome is not judged here, only where its data came from).
   EXPECT_EQ(window->deviceParams("us-temporal-calibration"), nlohmann::json({{"source", "plus"}}));
-  EXPECT_TRUE(window->deviceParams("registration").empty());
+  EXPECT_TRUE(window->deviceParams("registration").empty()) << "the step itself defaults to the PlusServer";
   window->findChild<QAction*>("actionStep_us-temporal-calibration")->trigger();
   ASSERT_TRUE(mrsns::test::waitUntil([&] { return !window->taskRunning(); }, 60000));
   const auto after_temporal = window->sessionState();

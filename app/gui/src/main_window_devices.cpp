@@ -80,6 +80,19 @@ nlohmann::json MainWindow::deviceParams(const QString& step) const {
   // Once the session is connected to a PlusServer, the ultrasound calibrations acquire from it, as fCal does;
   // without one they run on the recordings they name (the bundled fCal data by default).
   nlohmann::json params = nlohmann::json::object();
+  // The simulated room's UR controller is the one its tracker sees: the robot calibration drives it.
+  if (session_ && step == QStringLiteral("robot-calibration") && sim_room_ != nullptr && sim_room_->ready() &&
+      sim_room_->endpoints().rtde_port > 0) {
+    const auto& e = sim_room_->endpoints();
+    params = {{"source", "ur"},
+              {"host", e.host.toStdString()},
+              {"port", e.plus_port},
+              {"ur_host", e.host.toStdString()},
+              {"ur_rtde_port", e.rtde_port},
+              {"ur_script_port", e.realtime_port},
+              {"ur_dashboard_port", e.dashboard_port}};
+    return params;
+  }
   if (!session_ || (step != QStringLiteral("us-spatial-calibration") && step != QStringLiteral("us-temporal-calibration")))
     return params;
   const auto devices = session_->step("connect-devices");
