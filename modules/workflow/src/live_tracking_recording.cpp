@@ -133,4 +133,15 @@ LiveTrackingRecording recordLiveTracking(const LiveTrackingOptions& options, con
   return out;
 }
 
+nlohmann::json recordedFigures(const LiveTrackingRecording& r, const std::string& file,
+                               const LiveTrackingOptions& options) {
+  return {{"file", file},
+          {"frames", r.frames.size()},
+          {"seconds", r.seconds},
+          {"complete", r.complete},
+          {"device_identity", r.device_identity},
+          {"host", options.host},
+          {"port", options.port}};
+}
+
 }  // namespace mrsns::workflow::detail

@@ -8,10 +8,12 @@
 // gives the operator feedback and says when the acquisition is complete.
 #include <filesystem>
 #include <functional>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
 #include "mrsns/core/tracked_frame.h"
+#include "mrsns/workflow/session.h"
 #include "mrsns/workflow/steps.h"
 
 namespace mrsns::workflow::detail {
@@ -34,6 +36,21 @@ struct LiveTrackingRecording {
 /// Returns true when the acquisition is complete; `message` is shown to the
 /// operator (progress text). Called on the step's thread.
 using LiveTrackingMonitor = std::function<bool(const std::vector<TrackedFrame>& frames, std::string& message)>;
+
+/// True when the device that answered says it is mrsns-sim (its PlusServer, its frame grabber).
+[[nodiscard]] inline bool fromSimulatedRoom(const std::string& device_identity) {
+  return device_identity.rfind("mrsns-sim", 0) == 0;
+}
+
+/// A step's `recording` parameter: absolute as given, else relative to the session folder.
+[[nodiscard]] inline std::filesystem::path recordingPath(const Session& session, const std::string& recording) {
+  return std::filesystem::path(recording).is_absolute() ? std::filesystem::path(recording)
+                                                        : session.resolve(recording);
+}
+
+/// figures.recorded of a live acquisition: the file, what it holds, how long, who sent it, from where.
+[[nodiscard]] nlohmann::json recordedFigures(const LiveTrackingRecording& r, const std::string& file,
+                                             const LiveTrackingOptions& options);
 
 /// Throws NetworkError when no tracking arrives within the connect timeout
 /// (the message names host:port), Cancelled when cancelled (the frames

@@ -108,15 +108,9 @@ StepResult runPivotCalibration(Session& session, const Json& params, const StepC
       return static_cast<int>(poses.size()) >= o.min_poses && c.second_range >= o.target_swing_deg * kDeg;
     };
     auto r = recordLiveTracking(live, monitor, context);
+    recorded = recordedFigures(r, recording, live);
     frames = std::move(r.frames);
-    const bool simulated = r.device_identity.rfind("mrsns-sim", 0) == 0;
-    recorded = {{"file", recording},
-                {"frames", frames.size()},
-                {"seconds", r.seconds},
-                {"complete", r.complete},
-                {"device_identity", r.device_identity},
-                {"host", live.host},
-                {"port", live.port}};
+    const bool simulated = fromSimulatedRoom(r.device_identity);
     result.figures["simulated"] = simulated;
     result.outputs.push_back(recording);
   } else if (source == "file") {
@@ -125,9 +119,7 @@ StepResult runPivotCalibration(Session& session, const Json& params, const StepC
                                  " or the transforms it is computed from)");
     }
     recording = p.text("recording", "");
-    const std::filesystem::path path = std::filesystem::path(recording).is_absolute()
-                                           ? std::filesystem::path(recording)
-                                           : session.resolve(recording);
+    const std::filesystem::path path = recordingPath(session, recording);
     if (path.extension() == ".csv") {
       // A pose CSV holds the poses of `transform` themselves (one 4x4 per line), as calibrate-pivot --csv reads.
       const auto csv = io::readPoseCsv(path);
@@ -158,8 +150,7 @@ StepResult runPivotCalibration(Session& session, const Json& params, const StepC
   result.figures["transform"] = transform;
   result.figures["swing_deg"] = {coverage.first_range / kDeg, coverage.second_range / kDeg};
   std::ostringstream offline;
-  const std::string recording_path =
-      std::filesystem::path(recording).is_absolute() ? recording : session.resolve(recording).string();
+  const std::string recording_path = recordingPath(session, recording).string();
   const bool csv = std::filesystem::path(recording).extension() == ".csv";
   offline << "mrsns-cli calibrate-pivot " << (csv ? "--csv " : "--sequence ") << recording_path
           << (csv ? "" : " --transform " + transform)

@@ -74,12 +74,6 @@ std::string progressText(const RegistrationAcquisition& a, const RegistrationTar
   return s.str();
 }
 
-Eigen::Isometry3d isometryOf(const registration::PairedPointResult& r) {
-  Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
-  t.linear() = r.rotation;
-  t.translation() = r.translation;
-  return t;
-}
 
 }  // namespace
 
@@ -195,15 +189,9 @@ StepResult runAcquiredRegistration(Session& session, const Json& params, const S
       return done;
     };
     auto r = recordLiveTracking(live, monitor, context);
+    recorded = recordedFigures(r, recording, live);
     frames = std::move(r.frames);
-    recorded = {{"file", recording},
-                {"frames", frames.size()},
-                {"seconds", r.seconds},
-                {"complete", r.complete},
-                {"device_identity", r.device_identity},
-                {"host", live.host},
-                {"port", live.port}};
-    result.figures["simulated"] = r.device_identity.rfind("mrsns-sim", 0) == 0;
+    result.figures["simulated"] = fromSimulatedRoom(r.device_identity);
     result.outputs.push_back(recording);
   } else if (source == "file") {
     if (!p.has("recording")) {
@@ -211,10 +199,7 @@ StepResult runAcquiredRegistration(Session& session, const Json& params, const S
                                  " or the transforms it is computed from)");
     }
     recording = p.text("recording", "");
-    const std::filesystem::path path = std::filesystem::path(recording).is_absolute()
-                                           ? std::filesystem::path(recording)
-                                           : session.resolve(recording);
-    frames = io::readSequenceHeader(path, {}).frames;
+    frames = io::readSequenceHeader(recordingPath(session, recording), {}).frames;
     recorded = {{"file", recording}, {"frames", frames.size()}};
   } else {
     throw InvalidArgumentError("registration: source must be plus (live), file or simulated, not '" + source + "'");
@@ -232,7 +217,7 @@ StepResult runAcquiredRegistration(Session& session, const Json& params, const S
   result.figures["tip_marker_mm"] = {a.tip_marker.x(), a.tip_marker.y(), a.tip_marker.z()};
   result.figures["offline_command"] =
       "mrsns-cli session run " + session.folder().string() + " registration --param source=file --param recording=" +
-      (std::filesystem::path(recording).is_absolute() ? recording : session.resolve(recording).string());
+      recordingPath(session, recording).string();
   Json fiducials = Json::array();
   for (std::size_t f = 0; f < ct->fiducials.size(); ++f) {
     const auto& d = ct->fiducials[f];
@@ -331,7 +316,7 @@ StepResult runAcquiredRegistration(Session& session, const Json& params, const S
   result.figures["paths"] = screwPathsJson(ct->phantom);
   result.figures["models"] = models;
   result.figures["transforms"] = {{"CTToPatient", matrixJson(patient_T_ct.matrix())},
-                                  {"CTToPatientLandmarks", matrixJson(isometryOf(pp).matrix())}};
+                                  {"CTToPatientLandmarks", matrixJson(acq.landmark_patient_T_ct.matrix())}};
   result.ok = true;
   std::ostringstream s;
   s << acq.matched << " of " << ct->fiducials.size() << " fiducials, FRE " << formatFixed(pp.fre_rms_mm, 2) << " mm";

@@ -136,7 +136,7 @@ StepResult runLiveRobotCalibration(Session& session, const Json& params, const S
   // Who is who, before anything moves: a simulated tracker never drives a controller outside its room.
   context.report(0.02, "asking the tracker at " + live.host + ":" + std::to_string(live.port) + " who it is");
   const std::string identity = trackerIdentity(live.host, live.port, std::min(5.0, live.connect_timeout_s));
-  const bool simulated = identity.rfind("mrsns-sim", 0) == 0;
+  const bool simulated = fromSimulatedRoom(identity);
   std::string serial;
   try {
     robot::DashboardClient dashboard({ur.host, ur.dashboard_port, 2.0});

@@ -3,6 +3,7 @@
 #include <optional>
 #include <sstream>
 
+#include "live_tracking_recording.h"
 #include "live_us_recording.h"
 #include "mrsns/core/data_dir.h"
 #include "mrsns/io/device_set.h"
@@ -171,7 +172,7 @@ StepResult runUsSpatialCalibration(Session& session, const Json& params, const S
   }
   result.outputs = {output};
   if (live) {
-    const bool simulated = live->device_identity.rfind("mrsns-sim", 0) == 0;
+    const bool simulated = fromSimulatedRoom(live->device_identity);
     result.outputs.push_back(live_sweep);
     result.figures["recorded"] = {{"file", live_sweep},
                                   {"frames", live->sequence.frames.size()},

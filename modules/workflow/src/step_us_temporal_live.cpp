@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <sstream>
 
+#include "live_tracking_recording.h"
 #include "live_us_recording.h"
 #include "mrsns/core/error.h"
 #include "mrsns/core/format.h"
@@ -65,7 +66,7 @@ StepResult runLiveTemporalCalibration(Session& session, const Params& p, const S
   StepResult result;
   result.outputs = {video_file, tracker_file};
   const std::string transform = probeTransform(live.tracker_frames, wanted);
-  const bool simulated = live.device_identity.rfind("mrsns-sim", 0) == 0;
+  const bool simulated = fromSimulatedRoom(live.device_identity);
   result.figures["simulated"] = simulated;
   result.figures["recorded"] = {{"video", video_file},
                                 {"tracker", tracker_file},
