@@ -96,6 +96,17 @@ robot::Joints minimumJerkJoints(const robot::Joints& a, const robot::Joints& b, 
   return a + (b - a) * (u * u * u * (10.0 - 15.0 * u + 6.0 * u * u));
 }
 
+/// Stops the arm and repeats the stop every control period until it is at rest (a controller may ignore one
+/// command), for at most `limit_s`.
+void stopUntilAtRest(robot::RobotArm& arm, double limit_s = 3.0) {
+  const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(limit_s);
+  const auto period = std::chrono::duration<double>(std::max(arm.controlPeriodS(), 0.002));
+  do {
+    arm.stopJ(2.0);
+    std::this_thread::sleep_for(period);
+  } while (arm.state().qd.cwiseAbs().maxCoeff() > 1e-3 && std::chrono::steady_clock::now() < until);
+}
+
 }  // namespace
 
 StepResult runLiveRobotCalibration(Session& session, const Json& params, const StepContext& context) {
@@ -171,6 +182,9 @@ StepResult runLiveRobotCalibration(Session& session, const Json& params, const S
   pose_options.seed = plan.seed;
   const auto stations = robot::generateCalibrationPoses(kinematics, start.q, pose_options);
 
+  context.report(0.05, "the robot moves through " + std::to_string(stations.q.size()) +
+                          " stations around where it stands (flange tilts of " + formatFixed(plan.tilt_deg, 0) +
+                          " deg, " + formatFixed(plan.spread_mm, 0) + " mm): keep its workspace clear");
   const std::string recording = freeSessionName(session, "robot-calibration", "RobotCalibration", ".mhd");
   live.recording = session.resolve(recording);
   live.max_duration_s = 600.0;
@@ -208,10 +222,10 @@ StepResult runLiveRobotCalibration(Session& session, const Json& params, const S
         reached = static_cast<int>(k) + 1;
         from = to;
       }
-      arm->stopJ(2.0);
+      stopUntilAtRest(*arm);
     } catch (...) {
       robot_error = std::current_exception();
-      arm->stopJ(2.0);
+      stopUntilAtRest(*arm);
     }
     done = true;
   });
