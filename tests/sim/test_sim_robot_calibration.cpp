@@ -12,7 +12,10 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
+#include <algorithm>
+#include <chrono>
 #include <fstream>
+#include <thread>
 
 #include "sim_process.h"
 #include "test_data.h"
@@ -116,6 +119,60 @@ TEST(SimRobotCalibration, DrivenStationsCalibrateTheRobotToTheTrackerOverTwoSeed
     EXPECT_LT(translation_difference_mm, 1e-6);
     EXPECT_EQ(slurpFile(session / "session.json").find("truth"), std::string::npos);
   }
+}
+
+TEST(SimRobotCalibration, CancelledMidMotionTheArmComesToRestAndTheRecordingIsKept) {
+  const auto dir = scratchDirectory("sim-robot-calibration-cancel");
+  auto room = startRobotRoom(dir, 3, R"({"translation_mm": [0, 0, 40]})");
+  ASSERT_FALSE(room.ready.is_null()) << room.sim->wait().err;
+  const auto session = dir / "session";
+  ASSERT_EQ(runCli({"session", "create", session.string()}).exit_code, 0);
+  std::vector<std::string> args = {cliBinary().string(), "session", "run", session.string(), "robot-calibration"};
+  const auto params = robotParams(room.ready, room.ready);
+  args.insert(args.end(), params.begin(), params.end());
+  BackgroundProcess step(args);
+  ASSERT_TRUE(step.started());
+  // Stations take about 3 s each: 8 s in, the arm is on its way between two of them.
+  std::this_thread::sleep_for(std::chrono::seconds(8));
+  ASSERT_FALSE(step.ended()) << step.wait().err;
+  step.terminate();  // SIGTERM, as Ctrl-C
+  const auto r = step.wait(30.0);
+  EXPECT_EQ(r.exit_code, 1) << r.err;
+  EXPECT_NE(r.err.find("cancelled"), std::string::npos) << r.err;
+  std::this_thread::sleep_for(std::chrono::seconds(2));
+  room.sim->terminate();
+  ASSERT_EQ(room.sim->wait(30.0).exit_code, 0);
+
+  // The step is recorded as cancelled and its tracking kept.
+  const auto state = Json::parse(slurpFile(session / "session.json"));
+  EXPECT_EQ(state["steps"]["robot-calibration"]["status"], "cancelled") << state["steps"].dump();
+  bool kept = false;
+  for (const auto& entry : std::filesystem::directory_iterator(session / "robot-calibration")) {
+    kept = kept || (entry.path().extension() == ".mhd" && std::filesystem::file_size(entry.path()) > 0);
+  }
+  EXPECT_TRUE(kept) << "the recording of the stations reached so far stays in the session";
+
+  // From the truth (the test may read it): the flange marker stops within a second of the signal and stays.
+  const auto truth = Json::parse(slurpFile(room.truth));
+  const auto& names = truth["tools"];
+  std::size_t marker = names.size();
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    if (names[i] == "FlangeToTracker") marker = i;
+  }
+  ASSERT_LT(marker, names.size()) << names.dump();
+  const auto& samples = truth["tracker_samples"];
+  ASSERT_GT(samples.size(), 120U);
+  const auto position = [&](const Json& sample) {
+    const auto& p = sample["poses"][marker];
+    return Eigen::Vector3d(p[0].get<double>(), p[1].get<double>(), p[2].get<double>());
+  };
+  // The last second before the room stopped (two seconds after the cancel): no motion at all.
+  const Eigen::Vector3d last = position(samples.back());
+  double moved = 0.0;
+  for (std::size_t i = samples.size() - 60; i < samples.size(); ++i) moved = std::max(moved, (position(samples[i]) - last).norm());
+  EXPECT_LT(moved, 1e-6) << "mm: the arm is at rest";
+  // ... and it had moved during the calibration.
+  EXPECT_GT((position(samples.front()) - last).norm(), 1.0);
 }
 
 TEST(SimRobotCalibration, OneRoomsTrackerNeverDrivesAnotherRoomsController) {

@@ -1,6 +1,8 @@
 // `mrsns-cli session create|run|info|steps`: the workstation's session and
 // workflow steps, headless (the same calls the GUI makes).
 #include <array>
+#include <atomic>
+#include <csignal>
 #include <iostream>
 #include <optional>
 #include <sstream>
@@ -10,6 +12,16 @@
 #include "mrsns/workflow/steps.h"
 
 namespace mrsns::cli {
+
+namespace {
+
+std::atomic<bool> g_cancel_run{false};
+
+extern "C" void onStopSignal(int /*signal*/) {
+  g_cancel_run = true;
+}
+
+}  // namespace
 namespace {
 
 // "k=v": v as JSON when it parses (numbers, true/false, quoted strings), else as text.
@@ -248,7 +260,19 @@ void registerSessionVerbs(CLI::App& app, GlobalOptions& options, VerbList& verbs
         params["ur_dashboard_port"] = (*ports)[2];
       }
     }
+    // Ctrl-C (or SIGTERM) asks the step to stop as the GUI's Cancel does: a live acquisition stops its devices
+    // (an arm is brought to rest) and keeps what it recorded, instead of the process dying mid-motion.
+    g_cancel_run = false;
+    context.cancel = &g_cancel_run;
+    std::signal(SIGINT, onStopSignal);
+    std::signal(SIGTERM, onStopSignal);
     const auto result = workflow::runStep(session, args->step, params, context);
+    std::signal(SIGINT, SIG_DFL);
+    std::signal(SIGTERM, SIG_DFL);
+    if (result.cancelled) {
+      throw ComputationError("step '" + args->step +
+                             "' cancelled (Ctrl-C or SIGTERM); what it recorded is kept in the session");
+    }
     if (!result.ok) {
       throw ComputationError("step '" + args->step + "' did not succeed: " + result.summary);
     }
