@@ -15,6 +15,7 @@
 #include <thread>
 
 #include "mrsns/core/error.h"
+#include "mrsns/core/minimum_jerk.h"
 #include "mrsns/core/rigid.h"
 #include "mrsns/core/units.h"
 #include "mrsns/core/wall_clock.h"
@@ -187,8 +188,7 @@ struct OperatingRoom::Impl {
       robot::Joints to;
       for (int i = 0; i < 6; ++i) to[i] = w.joints[static_cast<std::size_t>(i)];
       if (t < start + w.duration_s) {
-        const double s = std::clamp((t - start) / w.duration_s, 0.0, 1.0);
-        ur->arm().reset(from + (to - from) * (s * s * s * (10.0 - 15.0 * s + 6.0 * s * s)));
+        ur->arm().reset(from + (to - from) * minimumJerk((t - start) / w.duration_s));
         return;
       }
       from = to;

@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "mrsns/core/error.h"
+#include "mrsns/core/minimum_jerk.h"
 #include "mrsns/core/rigid.h"
 #include "mrsns/core/units.h"
 #include "mrsns/io/device_set.h"
@@ -19,13 +20,6 @@
 namespace mrsns::simulation {
 
 namespace {
-
-// Minimum-jerk profile: how a hand moves between two poses (zero speed and
-// acceleration at both ends).
-double minimumJerk(double s) {
-  s = std::clamp(s, 0.0, 1.0);
-  return s * s * s * (10.0 - 15.0 * s + 6.0 * s * s);
-}
 
 nlohmann::json poseJson(const Eigen::Isometry3d& a_T_b) {
   nlohmann::json m = nlohmann::json::array();

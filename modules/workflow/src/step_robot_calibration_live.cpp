@@ -23,6 +23,7 @@
 #include "mrsns/core/error.h"
 #include "mrsns/core/format.h"
 #include "mrsns/core/frame_poses.h"
+#include "mrsns/core/minimum_jerk.h"
 #include "mrsns/core/rotation_average.h"
 #include "mrsns/core/transform_repository.h"
 #include "mrsns/core/units.h"
@@ -88,12 +89,6 @@ std::string announcedSerial(const std::string& identity) {
   for (std::size_t i = at + key.size(); i < identity.size() && std::isdigit(static_cast<unsigned char>(identity[i])); ++i)
     serial += identity[i];
   return serial;
-}
-
-// Joints on a minimum-jerk path from a to b at u in [0, 1] (zero speed and acceleration at both ends).
-robot::Joints minimumJerkJoints(const robot::Joints& a, const robot::Joints& b, double u) {
-  u = std::clamp(u, 0.0, 1.0);
-  return a + (b - a) * (u * u * u * (10.0 - 15.0 * u + 6.0 * u * u));
 }
 
 /// Stops the arm and repeats the stop every control period until it is at rest (a controller may ignore one
@@ -208,7 +203,7 @@ StepResult runLiveRobotCalibration(Session& session, const Json& params, const S
         while (!abort) {
           const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
           if (t > total) break;
-          if (!arm->servoJ(minimumJerkJoints(from, to, t / travel))) throw ComputationError("the UR controller refused the motion (protective stop?)");
+          if (!arm->servoJ(from + (to - from) * minimumJerk(t / travel))) throw ComputationError("the UR controller refused the motion (protective stop?)");
           if (k < stations.q.size()) holding = t >= travel + plan.settle_s ? static_cast<int>(k) : -1;
           next += std::chrono::duration_cast<std::chrono::steady_clock::duration>(std::chrono::duration<double>(period));
           std::this_thread::sleep_until(next);
