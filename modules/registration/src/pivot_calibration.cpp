@@ -68,6 +68,11 @@ double rotationRange(std::span<const Eigen::Isometry3d> poses, const std::vector
 
 }  // namespace
 
+double pivotRotationRange(std::span<const Eigen::Isometry3d> tracker_T_marker) {
+  if (tracker_T_marker.empty()) return 0.0;
+  return rotationRange(tracker_T_marker, std::vector<bool>(tracker_T_marker.size(), true));
+}
+
 PivotResult calibratePivot(std::span<const Eigen::Isometry3d> tracker_T_marker, const PivotOptions& options) {
   const auto n = tracker_T_marker.size();
   for (std::size_t i = 0; i < n; ++i) {
@@ -81,7 +86,7 @@ PivotResult calibratePivot(std::span<const Eigen::Isometry3d> tracker_T_marker, 
                            std::to_string(n) + ": record longer while pivoting the tool");
   }
   std::vector<bool> use(n, true);
-  const double range_all = rotationRange(tracker_T_marker, use);
+  const double range_all = pivotRotationRange(tracker_T_marker);
   if (range_all < options.min_rotation_range) {
     throw ComputationError("pivot calibration: the tool rotated only " + formatFixed(range_all * kRadToDeg, 1) +
                            " deg (at least " + formatFixed(options.min_rotation_range * kRadToDeg, 1) +

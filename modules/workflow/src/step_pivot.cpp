@@ -105,7 +105,10 @@ StepResult runPivotCalibration(Session& session, const Json& params, const StepC
       message = "pivot the " + o.tool + " about its tip in two directions: " + std::to_string(poses.size()) +
                 " poses, swing " + swingText(c) + " (aim for " + formatFixed(o.target_swing_deg, 0) + " x " +
                 formatFixed(o.target_swing_deg, 0) + ")";
-      return static_cast<int>(poses.size()) >= o.min_poses && c.second_range >= o.target_swing_deg * kDeg;
+      // Done only once the calibration will accept it: the swing in both directions and the rotation it checks
+      // (5 % above its limit, so the last poses' noise cannot tip it back).
+      return static_cast<int>(poses.size()) >= o.min_poses && c.second_range >= o.target_swing_deg * kDeg &&
+             registration::pivotRotationRange(poses) >= 1.05 * o.min_rotation_deg * kDeg;
     };
     auto r = recordLiveTracking(live, monitor, context);
     recorded = recordedFigures(r, recording, live);

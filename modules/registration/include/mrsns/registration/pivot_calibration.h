@@ -67,6 +67,11 @@ struct PivotCoverage {
 /// second on everything recorded so far.
 PivotCoverage pivotCoverage(std::span<const Eigen::Isometry3d> tracker_T_marker);
 
+/// The largest angle between any pose's rotation and their mean (radians, 0
+/// for no poses): what calibratePivot checks against min_rotation_range, so a
+/// live acquisition can keep recording until it would pass.
+double pivotRotationRange(std::span<const Eigen::Isometry3d> tracker_T_marker);
+
 /// Throws InvalidArgumentError for NaN poses, ComputationError for degenerate
 /// motion (the message says what to do: pivot more, in two directions, ...):
 /// among others when pivotCoverage's second range is below min_rotation_range
