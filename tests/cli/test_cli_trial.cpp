@@ -30,10 +30,11 @@ TEST(CliTrial, ShortTrialReportHasEveryFigure) {
   // Each module's figures (JSON pointers into steps/<step>/figures).
   const std::vector<std::pair<std::string, std::vector<std::string>>> expected = {
       {"connect-devices", {"/rate_hz", "/tools/ProbeToTracker/ok"}},
+      {"us-phantom-registration",
+       {"/fre_rms_mm", "/matched", "/landmarks", "/transforms/PhantomToReference", "/recorded/file"}},
       {"us-spatial-calibration",
        {"/validation/reprojection_3d_mean_mm", "/calibration/reprojection_3d_mean_mm", "/pixel_spacing_mm",
-        "/transforms/ImageToProbe"}},
-      {"us-temporal-calibration", {"/tracker_lag_ms", "/curve"}},
+        "/transforms/ImageToProbe", "/recorded/file", "/phantom_to_reference_source"}},
       {"robot-calibration",
        {"/residual_rms_mm", "/validation_error_mm/mean", "/transforms/RobotBaseToTracker", "/transforms/MarkerToFlange",
         "/recorded/stations_file"}},
@@ -66,6 +67,22 @@ TEST(CliTrial, ShortTrialReportHasEveryFigure) {
       EXPECT_TRUE(steps[step]["figures"].contains(nlohmann::json::json_pointer(p))) << p;
     }
   }
+  // PLUS's recording of a real probe is calibrated in its own session and compared with PLUS's result; the
+  // trial's session keeps the room's calibration.
+  const auto& plus = report["plus_comparison"]["steps"];
+  for (const auto& [step, pointers] : std::vector<std::pair<std::string, std::vector<std::string>>>{
+           {"us-spatial-calibration", {"/validation/reprojection_3d_mean_mm", "/plus_reference", "/transforms/ImageToProbe"}},
+           {"us-temporal-calibration", {"/tracker_lag_ms", "/curve"}}}) {
+    SCOPED_TRACE("PLUS comparison: " + step);
+    ASSERT_TRUE(plus.contains(step)) << report["plus_comparison"].dump();
+    if (!have_plus) {
+      EXPECT_EQ(plus[step]["status"], "skipped");
+      continue;
+    }
+    EXPECT_EQ(plus[step]["status"], "ok") << plus[step].dump();
+    for (const auto& p : pointers) EXPECT_TRUE(plus[step]["figures"].contains(nlohmann::json::json_pointer(p))) << p;
+  }
+  EXPECT_EQ(report["plus_comparison"]["session"], "plus_comparison");
   // The live steps acquired from the simulated room, and the room's scorer judged them from outside; the truth
   // stays in the room's folder, never in the session.
   const auto& room = report["simulated_room"];
@@ -79,8 +96,10 @@ TEST(CliTrial, ShortTrialReportHasEveryFigure) {
   EXPECT_TRUE(room["score"]["scored"].contains("pivot_calibration")) << room["score"].dump();
   EXPECT_TRUE(room["score"]["scored"].contains("robot_calibration")) << "the room's UR, driven by the workstation";
   EXPECT_EQ(steps["robot-calibration"]["figures"]["source"], "ur");
-  EXPECT_FALSE(room["score"]["scored"].contains("us_spatial_calibration"))
-      << "calibrated on the PLUS recording of a real probe: this room's truth cannot judge it";
+  EXPECT_TRUE(room["score"]["scored"].contains("us_phantom_registration")) << room["score"].dump();
+  EXPECT_TRUE(room["score"]["scored"].contains("us_spatial_calibration"))
+      << "the probe swept over the room's phantom: its truth judges ImageToProbe";
+  EXPECT_EQ(steps["us-spatial-calibration"]["figures"]["phantom_to_reference_source"], "us-phantom-registration");
   EXPECT_TRUE(std::filesystem::exists(dir / "room" / "truth.json"));
   EXPECT_EQ(slurpFile(dir / "session" / "session.json").find("fiducials_ct\""), std::string::npos);
   EXPECT_NE(steps["robot-placement"]["figures"]["registration_error"].get<std::string>().find("not included"),

@@ -1,7 +1,8 @@
 // The Devices menu drives the simulated operating room as a user would: start
 // mrsns-sim from the GUI, see the SIMULATED banner, connect to it as to a
 // PlusServer, find every tool and the step marked simulated, calibrate the
-// stylus, register the patient and calibrate the robot live from the Workflow
+// stylus, register the patient, register the N-wire phantom and calibrate the
+// probe on a sweep over it, and calibrate the robot live from the Workflow
 // menu, stop it.
 #include <QAction>
 #include <QLabel>
@@ -84,6 +85,27 @@ TEST_F(SimulatedRoomTest, StartConnectAndStopFromTheDevicesMenu) {
   EXPECT_FALSE(reg["figures"].contains("simulation_truth"));
   EXPECT_TRUE(window->saveScreenshot(
       QString::fromStdString((mrsns::test::guiArtifactDir() / "main_window_simulated_registration.png").string())));
+
+  // The probe calibrated as in fCal, from the Workflow menu: the scenario's operator touches the N-wire phantom's
+  // landmarks from 80 s (the phantom registration), then sweeps the probe over its wires from 112 s.
+  EXPECT_TRUE(window->deviceParams("us-phantom-registration").empty()) << "the step itself defaults to the PlusServer";
+  window->findChild<QAction*>("actionStep_us-phantom-registration")->trigger();
+  ASSERT_TRUE(mrsns::test::waitUntil([&] { return !window->taskRunning(); }, 150000));
+  const auto after_phantom = window->sessionState();
+  const auto& phantom = after_phantom["steps"]["us-phantom-registration"];
+  ASSERT_EQ(phantom.value("status", ""), "ok") << phantom.dump() << messages();
+  EXPECT_TRUE(phantom["figures"]["simulated"].get<bool>());
+  EXPECT_EQ(phantom["figures"]["matched"].get<int>(), 8);
+  EXPECT_EQ(window->deviceParams("us-spatial-calibration"), nlohmann::json({{"source", "plus"}}));
+  window->findChild<QAction*>("actionStep_us-spatial-calibration")->trigger();
+  ASSERT_TRUE(mrsns::test::waitUntil([&] { return !window->taskRunning(); }, 150000));
+  const auto after_sweep = window->sessionState();
+  const auto& sweep = after_sweep["steps"]["us-spatial-calibration"];
+  ASSERT_EQ(sweep.value("status", ""), "ok") << sweep.dump() << messages();
+  EXPECT_TRUE(sweep["figures"]["simulated"].get<bool>());
+  EXPECT_EQ(sweep["figures"]["phantom_to_reference_source"], "us-phantom-registration");
+  EXPECT_TRUE(window->saveScreenshot(
+      QString::fromStdString((mrsns::test::guiArtifactDir() / "main_window_simulated_us_calibration.png").string())));
 
   // The robot calibration drives the room's UR controller (the one its tracker sees) through its stations.
   EXPECT_EQ(window->deviceParams("robot-calibration").value("source", ""), "ur");

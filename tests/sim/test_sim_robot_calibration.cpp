@@ -13,9 +13,12 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <fstream>
 #include <thread>
+
+#include "mrsns/robot/dashboard_client.h"
 
 #include "sim_process.h"
 #include "test_data.h"
@@ -25,7 +28,8 @@ namespace {
 
 using Json = nlohmann::json;
 
-std::filesystem::path writeRobotScenario(const std::filesystem::path& dir, int seed, const std::string& marker_to_flange) {
+std::filesystem::path writeRobotScenario(const std::filesystem::path& dir, int seed, const std::string& marker_to_flange,
+                                         const std::string& robot_extra = "") {
   const auto file = dir / "robot.json";
   std::ofstream(file) << R"({"format": "mrsns-scenario/1", "name": "robot calibration", "seed": )" << seed << R"(,
     "tracker": {"port": 0, "noise": {"position_rms_mm": 0.12, "orientation_rms_deg": 0.05}},
@@ -33,7 +37,7 @@ std::filesystem::path writeRobotScenario(const std::filesystem::path& dir, int s
     "patient": {"generated_phantom": {"spacing_mm": 2.0}, "reference_tool": "PatientToTracker"},
     "robot": {"base_to_tracker": {"translation_mm": [400, 300, -1450], "rotation_deg": [0, 0, 20]},
               "marker_to_flange": )"
-                      << marker_to_flange << R"(, "marker_tool": "FlangeToTracker"}})";
+                      << marker_to_flange << R"(, "marker_tool": "FlangeToTracker")" << robot_extra << R"(}})";
   return file;
 }
 
@@ -43,11 +47,13 @@ struct RobotRoom {
   std::filesystem::path truth;
 };
 
-RobotRoom startRobotRoom(const std::filesystem::path& dir, int seed, const std::string& marker_to_flange) {
+RobotRoom startRobotRoom(const std::filesystem::path& dir, int seed, const std::string& marker_to_flange,
+                         const std::string& robot_extra = "") {
   RobotRoom room;
   room.truth = dir / "truth.json";
   room.sim = std::make_unique<SimProcess>(std::vector<std::string>{
-      "run", "--scenario", writeRobotScenario(dir, seed, marker_to_flange).string(), "--truth", room.truth.string(),
+      "run", "--scenario", writeRobotScenario(dir, seed, marker_to_flange, robot_extra).string(), "--truth",
+      room.truth.string(),
       "--ready-file", (dir / "ready.json").string(), "--any-ports", "--duration", "0", "--json"});
   room.ready = room.sim->waitReady(dir / "ready.json");
   return room;
@@ -119,6 +125,73 @@ TEST(SimRobotCalibration, DrivenStationsCalibrateTheRobotToTheTrackerOverTwoSeed
     EXPECT_LT(translation_difference_mm, 1e-6);
     EXPECT_EQ(slurpFile(session / "session.json").find("truth"), std::string::npos);
   }
+}
+
+TEST(SimRobotCalibration, AStationBeyondTheControllersJointLimitIsSkippedWithTheReasonAndTheRestCalibrate) {
+  // The controller's safety configuration narrows the last wrist joint to +/-15 deg (a cable routed through the
+  // tool): on the way to a station that turns the flange further, the arm meets that limit and the controller
+  // raises a protective stop, as a UR does. The step skips that station, waits for the operator to unlock the
+  // stop, and goes on from where the arm stands.
+  const auto dir = scratchDirectory("sim-robot-calibration-unreachable");
+  auto room = startRobotRoom(dir, 3, R"({"translation_mm": [0, 0, 40]})", R"(, "joint_limits_deg": {"5": [-15, 15]})");
+  ASSERT_FALSE(room.ready.is_null()) << room.sim->wait().err;
+  const auto session = dir / "session";
+  ASSERT_EQ(runCli({"session", "create", session.string()}).exit_code, 0);
+  std::vector<std::string> args = {"session", "run", session.string(), "robot-calibration", "--param", "seed=3",
+                                   "--json"};
+  const auto params = robotParams(room.ready, room.ready);
+  args.insert(args.end(), params.begin(), params.end());
+  // The operator at the teach pendant: after each protective stop, inspects the arm and unlocks it (the UR allows
+  // that 5 s after the stop). The workstation waits for this; it never unlocks a protective stop itself.
+  std::atomic<bool> finished{false};
+  std::atomic<int> unlocks{0};
+  std::thread operator_at_pendant([&] {
+    try {
+      robot::DashboardClient dashboard(
+          {"127.0.0.1", static_cast<std::uint16_t>(room.ready["robot"]["dashboard"].get<int>()), 2.0});
+      while (!finished) {
+        if (dashboard.safetyStatus() == robot::UrSafetyMode::ProtectiveStop) {
+          std::this_thread::sleep_for(std::chrono::milliseconds(5200));
+          if (dashboard.command(robot::dashboard::Command::UnlockProtectiveStop).accepted) ++unlocks;
+        }
+        std::this_thread::sleep_for(std::chrono::milliseconds(200));
+      }
+    } catch (const std::exception& e) {
+      ADD_FAILURE() << "the operator's dashboard: " << e.what();
+    }
+  });
+  const auto step = runCli(args);
+  finished = true;
+  operator_at_pendant.join();
+  room.sim->terminate();
+  EXPECT_EQ(room.sim->wait(30.0).exit_code, 0);
+  EXPECT_GE(unlocks.load(), 1) << "the arm met its joint limit at least once";
+  // The step's record in the session (the CLI prints JSON only when it succeeds).
+  const auto result = Json::parse(slurpFile(session / "session.json"))["steps"]["robot-calibration"];
+  const auto& f = result["figures"];
+  int skipped = 0;
+  for (const auto& station : f["stations"]) {
+    if (!station.contains("skipped")) continue;
+    ++skipped;
+    EXPECT_NE(station["skipped"].get<std::string>().find("protective stop"), std::string::npos) << station.dump();
+  }
+  EXPECT_GE(skipped, 1) << "some station turns the wrist beyond 15 deg: " << f["stations"].dump();
+  EXPECT_NE(result["summary"].get<std::string>().find("skipped"), std::string::npos) << result["summary"];
+  // Whatever was left: a calibration from the reached stations (6 or more), or a failure that says why.
+  if (step.exit_code == 0) {
+    EXPECT_GE(f["poses"].get<int>(), 6);
+    const auto score = runSim({"score", session.string(), room.truth.string(), "--json"});
+    ASSERT_EQ(score.exit_code, 0) << score.err;
+    const auto s = Json::parse(score.out)["scored"]["robot_calibration"];
+    EXPECT_LT(s["error_500mm_mm"].get<double>(), 0.15) << s.dump();
+    std::printf("[ figures ] %d of %zu stations skipped (joint limit), RobotBaseToTracker error 500 mm from the "
+                "base %.3f mm from the %d reached\n",
+                skipped, f["stations"].size(), s["error_500mm_mm"].get<double>(), f["poses"].get<int>());
+  } else {
+    EXPECT_NE(step.err.find("6 needed"), std::string::npos) << step.err;
+  }
+  // Nothing recorded is lost: the tracking of every station, reached or not, stays in the session.
+  EXPECT_TRUE(std::filesystem::exists(session / f["recorded"]["file"].get<std::string>()));
 }
 
 TEST(SimRobotCalibration, CancelledMidMotionTheArmComesToRestAndTheRecordingIsKept) {

@@ -1,16 +1,18 @@
 // The world's truth: motion segments, the operator's hand (tremor RMS and
 // band), visibility (measurement volume, line of sight, faults), patient
-// shifts, image-plane poses, the pointer touching landmarks and tracing the
-// bone.
+// shifts, image-plane poses, the pointer touching landmarks (the patient's
+// or the N-wire phantom's) and tracing the bone.
 #include <gtest/gtest.h>
 
 #include <cmath>
 
 #include "mrsns/core/error.h"
 #include "mrsns/core/rigid.h"
+#include "mrsns/io/device_set.h"
 #include "mrsns/registration/phantom_cervical.h"
 #include "mrsns/simulation/scenario.h"
 #include "mrsns/simulation/world.h"
+#include "test_data.h"
 
 namespace mrsns::simulation {
 namespace {
@@ -203,6 +205,38 @@ TEST(World, TouchLandmarksHoldsTheTipOnEachLandmarkInTurnFollowingThePatient) {
   EXPECT_NEAR((tip(4.0) - world.trackerTCt(4.0) * Eigen::Vector3d(10, 5, 0)).norm(), 20.0, 1e-6);
   // The pointer keeps the orientation it started with.
   EXPECT_TRUE(world.tools(6.0, std::nullopt)[1].tracker_T_tool.linear().isApprox(Eigen::Matrix3d::Identity(), 1e-9));
+}
+
+TEST(World, TouchLandmarksOnTheNWirePhantomTouchesItsDefinitionsLandmarksByDefault) {
+  MRSNS_REQUIRE_DATA(config, "plus/PlusDeviceSet_fCal_Sim_SpatialCalibration_1.2.xml");
+  const std::string phantom = R"(, "nwire_phantom": {"config": ")" + config.string() +
+                              R"(", "reference_tool": "ReferenceToTracker",
+      "phantom_to_reference": {"translation_mm": [30, 20, -40], "rotation_deg": [0, 0, 15]}})";
+  const auto s = scenarioWith(
+      R"({"name": "ReferenceToTracker", "start": {"translation_mm": [-260, -40, -1450]}},
+         {"name": "StylusToTracker", "tip_mm": [0, 0, -160], "start": {"translation_mm": [150, 0, -1200]},
+          "motion": [{"kind": "touch_landmarks", "frame": "Phantom", "travel_s": 1, "dwell_s": 2, "approach_mm": 20}]})",
+      phantom);
+  const World world(s);
+  const auto landmarks = io::readDeviceSet(config).requirePhantom().landmarks;
+  ASSERT_EQ(landmarks.size(), 8U);
+  for (std::size_t k = 0; k < landmarks.size(); ++k) {
+    // Landmark k is held from 1.5 + 4k s to 3.5 + 4k s, where the phantom's definition puts it.
+    const double t = 2.5 + 4.0 * static_cast<double>(k);
+    const Eigen::Vector3d tip = world.tools(t, std::nullopt)[1].tracker_T_tool * Eigen::Vector3d(0, 0, -160);
+    EXPECT_LT((tip - world.trackerTPhantom(t) * landmarks[k].position_phantom).norm(), 1e-9) << landmarks[k].name;
+  }
+  // The patient's frame and names are refused on the phantom, and other frames are refused.
+  EXPECT_THROW(scenarioWith(R"({"name": "StylusToTracker", "tip_mm": [0, 0, -160],
+      "motion": [{"kind": "touch_landmarks", "frame": "Phantom", "points_ct_mm": [[0, 0, 0]]}]})"),
+               FormatError);
+  EXPECT_THROW(scenarioWith(R"({"name": "StylusToTracker", "tip_mm": [0, 0, -160],
+      "motion": [{"kind": "touch_landmarks", "frame": "Tracker"}]})"),
+               FormatError);
+  // Without a phantom in the room there is nothing to touch.
+  EXPECT_THROW(World(scenarioWith(R"({"name": "StylusToTracker", "tip_mm": [0, 0, -160],
+      "motion": [{"kind": "touch_landmarks", "frame": "Phantom"}]})")),
+               InvalidArgumentError);
 }
 
 TEST(World, TraceBoneMovesTheTipOverTheExposedPosteriorSurface) {

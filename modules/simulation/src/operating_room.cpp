@@ -459,7 +459,13 @@ void OperatingRoom::start() {
     ur.dashboard_port = s.robot.dashboard_port;
     ur.secondary_port = s.robot.secondary_port;
     ur.realtime_port = s.robot.realtime_port;
-    for (int i = 0; i < 6; ++i) ur.arm.q0[i] = s.robot.start_joints[static_cast<std::size_t>(i)];
+    for (int i = 0; i < 6; ++i) {
+      ur.arm.q0[i] = s.robot.start_joints[static_cast<std::size_t>(i)];
+      if (const auto& range = s.robot.joint_limits[static_cast<std::size_t>(i)]) {
+        ur.arm.limits.min_q[i] = range->first;
+        ur.arm.limits.max_q[i] = range->second;
+      }
+    }
     ur.serial_number = serial;
     try {
       impl_->ur = std::make_unique<robot::UrSimulator>(ur);

@@ -12,25 +12,25 @@ namespace mrsns::simulation {
 
 namespace {
 
-MotionSegment tipSegment(MotionKind kind, double duration_s, const Eigen::Matrix3d& ct_R_tool,
-                         const Eigen::Vector3d& tip_ct) {
+MotionSegment tipSegment(MotionKind kind, double duration_s, PoseFrame frame, const Eigen::Matrix3d& frame_R_tool,
+                         const Eigen::Vector3d& tip) {
   MotionSegment s;
   s.kind = kind;
   s.duration_s = duration_s;
-  s.frame = PoseFrame::CT;
+  s.frame = frame;
   s.pose_of = PoseOf::Tip;
   Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
-  pose.linear() = ct_R_tool;
-  pose.translation() = tip_ct;
+  pose.linear() = frame_R_tool;
+  pose.translation() = tip;
   s.pose = pose;
   return s;
 }
 
-/// Along the pointer's shaft, from the tip towards the marker (CT).
+/// Along the pointer's shaft, from the tip towards the marker (the segment's frame).
 Eigen::Vector3d shaftDirection(const PointerGeometry& pointer) {
   const double length = pointer.tip_tool.norm();
   const Eigen::Vector3d up_tool = length > 1e-9 ? Eigen::Vector3d(-pointer.tip_tool / length) : Eigen::Vector3d::UnitZ();
-  return pointer.ct_R_tool * up_tool;
+  return pointer.frame_R_tool * up_tool;
 }
 
 /// Where a column along -y first meets the bone, between y_top and y_bottom.
@@ -56,11 +56,14 @@ std::optional<Eigen::Vector3d> firstHit(double x, double z, double y_top, double
 }  // namespace
 
 std::vector<MotionSegment> touchLandmarkSegments(const MotionSegment& touch, const PointerGeometry& pointer,
-                                                 const std::vector<Eigen::Vector3d>& landmarks_ct) {
-  const auto& points = touch.points_ct.empty() ? landmarks_ct : touch.points_ct;
+                                                 const std::vector<Eigen::Vector3d>& landmarks) {
+  const auto& points = touch.points.empty() ? landmarks : touch.points;
   if (points.empty()) {
-    throw InvalidArgumentError(
-        "touch_landmarks: the patient has no fiducials (a label map): give the segment's points_ct_mm");
+    throw InvalidArgumentError(touch.frame == PoseFrame::Phantom
+                                   ? "touch_landmarks: the N-wire phantom's definition has no Landmarks: give the "
+                                     "segment's points_mm"
+                                   : "touch_landmarks: the patient has no fiducials (a label map): give the "
+                                     "segment's points_mm");
   }
   for (const auto& m : touch.misplaced) {
     if (m.landmark < 1 || m.landmark > static_cast<int>(points.size())) {
@@ -74,13 +77,16 @@ std::vector<MotionSegment> touchLandmarkSegments(const MotionSegment& touch, con
   for (std::size_t i = 0; i < points.size(); ++i) {
     Eigen::Vector3d p = points[i];
     for (const auto& m : touch.misplaced) {
-      if (m.landmark == static_cast<int>(i) + 1) p += m.offset_ct;
+      if (m.landmark == static_cast<int>(i) + 1) p += m.offset;
     }
     const Eigen::Vector3d above = p + touch.approach_mm * up;
-    out.push_back(tipSegment(MotionKind::Move, touch.travel_s, pointer.ct_R_tool, above));
-    out.push_back(tipSegment(MotionKind::Move, kDownUpS, pointer.ct_R_tool, p));
-    out.push_back(tipSegment(MotionKind::Hold, touch.dwell_s, pointer.ct_R_tool, p));
-    out.push_back(tipSegment(MotionKind::Move, kDownUpS, pointer.ct_R_tool, above));
+    const auto at = [&](MotionKind kind, double duration_s, const Eigen::Vector3d& tip) {
+      out.push_back(tipSegment(kind, duration_s, touch.frame, pointer.frame_R_tool, tip));
+    };
+    at(MotionKind::Move, touch.travel_s, above);
+    at(MotionKind::Move, kDownUpS, p);
+    at(MotionKind::Hold, touch.dwell_s, p);
+    at(MotionKind::Move, kDownUpS, above);
   }
   return out;
 }
@@ -117,12 +123,12 @@ std::vector<MotionSegment> traceBoneSegments(const MotionSegment& trace, const P
   const Eigen::Vector3d up = shaftDirection(pointer);
   const double step_s = std::max(0.02, (trace.duration_s - kApproachS - 2.0 * kDownUpS) / (path.size() - 1));
   std::vector<MotionSegment> out;
-  out.push_back(tipSegment(MotionKind::Move, kApproachS, pointer.ct_R_tool, path.front() + 20.0 * up));
-  out.push_back(tipSegment(MotionKind::Move, kDownUpS, pointer.ct_R_tool, path.front()));
+  out.push_back(tipSegment(MotionKind::Move, kApproachS, PoseFrame::CT, pointer.frame_R_tool, path.front() + 20.0 * up));
+  out.push_back(tipSegment(MotionKind::Move, kDownUpS, PoseFrame::CT, pointer.frame_R_tool, path.front()));
   for (std::size_t i = 1; i < path.size(); ++i) {
-    out.push_back(tipSegment(MotionKind::Move, step_s, pointer.ct_R_tool, path[i]));
+    out.push_back(tipSegment(MotionKind::Move, step_s, PoseFrame::CT, pointer.frame_R_tool, path[i]));
   }
-  out.push_back(tipSegment(MotionKind::Move, kDownUpS, pointer.ct_R_tool, path.back() + 20.0 * up));
+  out.push_back(tipSegment(MotionKind::Move, kDownUpS, PoseFrame::CT, pointer.frame_R_tool, path.back() + 20.0 * up));
   return out;
 }
 

@@ -13,16 +13,17 @@
 namespace mrsns::simulation {
 
 struct PointerGeometry {
-  Eigen::Vector3d tip_tool = Eigen::Vector3d::Zero();      ///< the tip in the marker frame
-  Eigen::Matrix3d ct_R_tool = Eigen::Matrix3d::Identity();  ///< the pointer's orientation while it works (CT)
+  Eigen::Vector3d tip_tool = Eigen::Vector3d::Zero();  ///< the tip in the marker frame
+  /// The pointer's orientation while it works, in the frame of the segment (CT or Phantom).
+  Eigen::Matrix3d frame_R_tool = Eigen::Matrix3d::Identity();
 };
 
-/// Holds and moves (frame CT, pose_of tip) that touch `landmarks_ct` in order
-/// (the segment's own points_ct when given), with its misplaced touches.
-/// Throws InvalidArgumentError when there is nothing to touch or a misplaced
-/// touch names a landmark that is not touched.
+/// Holds and moves (in the segment's frame, pose_of tip) that touch
+/// `landmarks` (that frame) in order, or the segment's own points when given,
+/// with its misplaced touches. Throws InvalidArgumentError when there is
+/// nothing to touch or a misplaced touch names a landmark that is not touched.
 std::vector<MotionSegment> touchLandmarkSegments(const MotionSegment& touch, const PointerGeometry& pointer,
-                                                 const std::vector<Eigen::Vector3d>& landmarks_ct);
+                                                 const std::vector<Eigen::Vector3d>& landmarks);
 
 /// Moves of the tip over the bone surface seen from +y of the CT (posterior
 /// in LPS: the exposed surface of a posterior approach), over the extent of

@@ -234,17 +234,25 @@ MotionSegment readSegment(const Node& n) {
       s.axis_tool.normalize();
       break;
     case MotionKind::TouchLandmarks:
-      n.allow({"kind", "points_ct_mm", "travel_s", "dwell_s", "approach_mm", "misplaced"});
-      if (n.has("points_ct_mm")) {
-        const auto& v = n.json().at("points_ct_mm");
-        if (!v.is_array() || v.empty()) n.failKey("points_ct_mm", "must be a non-empty array of [x, y, z]");
+      n.allow({"kind", "frame", "points_mm", "points_ct_mm", "travel_s", "dwell_s", "approach_mm", "misplaced"});
+      s.frame = n.has("frame") ? poseFrame(n, "frame") : PoseFrame::CT;
+      if (s.frame != PoseFrame::CT && s.frame != PoseFrame::Phantom) {
+        n.failKey("frame", "must be CT (the patient's fiducials) or Phantom (the N-wire phantom's landmarks)");
+      }
+      if (n.has("points_mm") && n.has("points_ct_mm")) n.fail("give points_mm or points_ct_mm, not both");
+      // points_ct_mm: the name from before touch_landmarks had a frame; it is only for frame CT.
+      if (n.has("points_ct_mm") && s.frame != PoseFrame::CT) n.failKey("points_ct_mm", "is for frame CT: use points_mm");
+      for (const char* key : {"points_mm", "points_ct_mm"}) {
+        if (!n.has(key)) continue;
+        const auto& v = n.json().at(key);
+        if (!v.is_array() || v.empty()) n.failKey(key, "must be a non-empty array of [x, y, z]");
         for (const auto& point : v) {
           Eigen::Vector3d q;
           const bool ok = point.is_array() && point.size() == 3 && point[0].is_number() && point[1].is_number() &&
                           point[2].is_number();
           if (ok) q = Eigen::Vector3d(point[0].get<double>(), point[1].get<double>(), point[2].get<double>());
-          if (!ok || !q.allFinite()) n.failKey("points_ct_mm", "must be a non-empty array of [x, y, z] (mm)");
-          s.points_ct.push_back(q);
+          if (!ok || !q.allFinite()) n.failKey(key, "must be a non-empty array of [x, y, z] (mm)");
+          s.points.push_back(q);
         }
       }
       s.travel_s = n.number("travel_s", s.travel_s, 0.1, 60.0);
@@ -255,7 +263,7 @@ MotionSegment readSegment(const Node& n) {
         MisplacedTouch t;
         t.landmark = m.integer("landmark", 0, 1, 1000);
         if (!m.has("landmark")) m.fail("needs 'landmark' (1-based, in the order touched)");
-        t.offset_ct = m.vector3("offset_mm", t.offset_ct);
+        t.offset = m.vector3("offset_mm", t.offset);
         s.misplaced.push_back(t);
       }
       // Its length follows from the landmarks (known once the patient is built).
@@ -268,7 +276,7 @@ MotionSegment readSegment(const Node& n) {
       break;
   }
   if (n.has("pose")) s.pose = n.pose("pose", Eigen::Isometry3d::Identity());
-  s.frame = poseFrame(n, "frame");
+  if (s.kind != MotionKind::TouchLandmarks) s.frame = poseFrame(n, "frame");  // touch_landmarks: read above
   s.pose_of = choose<PoseOf>(n, "pose_of", PoseOf::Tool,
                              {{"tool", PoseOf::Tool}, {"image", PoseOf::Image}, {"tip", PoseOf::Tip}});
   return s;
@@ -386,7 +394,7 @@ UltrasoundSpec readUltrasound(const Node& n) {
 
 RobotSpec readRobot(const Node& n) {
   n.allow({"enabled", "ports", "base_to_tracker", "marker_to_flange", "drill_tip_mm", "marker_tool", "start_joints_deg",
-           "hand_guided"});
+           "hand_guided", "joint_limits_deg"});
   RobotSpec r;
   r.enabled = n.boolean("enabled", true);
   if (n.has("ports")) {
@@ -408,6 +416,21 @@ RobotSpec readRobot(const Node& n) {
     for (std::size_t i = 0; i < 6; ++i) {
       if (!v[i].is_number()) n.failKey("start_joints_deg", "must be 6 numbers");
       r.start_joints[i] = v[i].get<double>() * kDeg;
+    }
+  }
+  if (n.has("joint_limits_deg")) {
+    // {"<joint index 0-5>": [min, max]}: only the joints the safety configuration narrows.
+    const auto& v = n.json().at("joint_limits_deg");
+    if (!v.is_object()) n.failKey("joint_limits_deg", "must map joint indices (\"0\" to \"5\") to [min, max] degrees");
+    for (const auto& [key, range] : v.items()) {
+      const bool index_ok = key.size() == 1 && key[0] >= '0' && key[0] <= '5';
+      const bool range_ok = range.is_array() && range.size() == 2 && range[0].is_number() && range[1].is_number() &&
+                            range[0].get<double>() < range[1].get<double>();
+      if (!index_ok || !range_ok) {
+        n.failKey("joint_limits_deg", "must map joint indices (\"0\" to \"5\") to [min, max] degrees, min < max");
+      }
+      r.joint_limits[static_cast<std::size_t>(key[0] - '0')] =
+          std::pair{range[0].get<double>() * kDeg, range[1].get<double>() * kDeg};
     }
   }
   for (const auto& w : n.array("hand_guided")) {

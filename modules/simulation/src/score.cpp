@@ -2,6 +2,7 @@
 // can judge, each with the definition of its error.
 #include "mrsns/simulation/score.h"
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -107,6 +108,31 @@ std::string scoreSession(const std::filesystem::path& session_dir, const std::fi
   } else {
     not_scored.push_back(
         "us-spatial-calibration (not run, failed, without ImageToProbe, or not acquired from mrsns-sim)");
+  }
+
+  if (const Json* est = recordedTransform(session, "us-phantom-registration", "PhantomToReference")) {
+    if (st.contains("PhantomToReference")) {
+      // Judged where it matters to the calibration: at the phantom's wires (the corners of their box).
+      const Eigen::Matrix4d e = matrix(*est, "session PhantomToReference");
+      const Eigen::Matrix4d t = matrix(st["PhantomToReference"], "truth PhantomToReference");
+      std::vector<double> errors;
+      if (st.contains("phantom_wires_mm")) {
+        for (const auto& end : st["phantom_wires_mm"]) {
+          const Eigen::Vector4d p(end[0].get<double>(), end[1].get<double>(), end[2].get<double>(), 1.0);
+          errors.push_back(((e - t) * p).head<3>().norm());
+        }
+      }
+      const Eigen::Matrix3d dr = e.block<3, 3>(0, 0).transpose() * t.block<3, 3>(0, 0);
+      const double angle_deg = std::acos(std::clamp((dr.trace() - 1.0) / 2.0, -1.0, 1.0)) * 180.0 / M_PI;
+      scored["us_phantom_registration"] = {
+          {"definition", "distance between where the estimated and the true PhantomToReference put the ends of the "
+                         "phantom's wires; rotation error"},
+          {"error_at_wires", stats(errors)},
+          {"rotation_error_deg", angle_deg}};
+    }
+  } else {
+    not_scored.push_back(
+        "us-phantom-registration (not run, failed, without PhantomToReference, or not acquired from mrsns-sim)");
   }
 
   const Json& steps = session.contains("steps") ? session["steps"] : Json::object();

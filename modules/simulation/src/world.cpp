@@ -194,13 +194,26 @@ void World::expandRegistrationMotions() {
   if (patient_ && patient_->phantom) {
     for (const auto& l : patient_->phantom->fiducials_truth.points) fiducials_ct.push_back(l.position);
   }
-  // Where the CT lies when the room starts: the patient's reference where it starts, then CT in it.
-  Eigen::Isometry3d tracker_T_ct = Eigen::Isometry3d::Identity();
-  if (scenario_.patient) {
+  // The frames as they lie when the room starts: a reference where it starts, then the CT or phantom in it.
+  const auto startOf = [this](const std::string& reference_tool, const Eigen::Isometry3d& reference_T_frame) {
+    Eigen::Isometry3d tracker_T_reference = Eigen::Isometry3d::Identity();
     for (const auto& tool : scenario_.tools) {
-      if (tool.name == scenario_.patient->reference_tool) tracker_T_ct = tool.start;
+      if (tool.name == reference_tool) tracker_T_reference = tool.start;
     }
-    tracker_T_ct = tracker_T_ct * scenario_.patient->reference_T_ct;
+    return tracker_T_reference * reference_T_frame;
+  };
+  const Eigen::Isometry3d tracker_T_ct = scenario_.patient
+                                             ? startOf(scenario_.patient->reference_tool, scenario_.patient->reference_T_ct)
+                                             : Eigen::Isometry3d::Identity();
+  std::optional<Eigen::Isometry3d> tracker_T_phantom;
+  std::vector<Eigen::Vector3d> phantom_landmarks;
+  if (scenario_.nwire_phantom) {
+    tracker_T_phantom =
+        startOf(scenario_.nwire_phantom->reference_tool, scenario_.nwire_phantom->reference_T_phantom);
+    const auto config = io::readDeviceSet(scenario_.nwire_phantom->config);
+    if (config.phantom) {
+      for (const auto& l : config.phantom->landmarks) phantom_landmarks.push_back(l.position_phantom);
+    }
   }
   for (auto& tool : scenario_.tools) {
     std::vector<MotionSegment> expanded;
@@ -209,20 +222,25 @@ void World::expandRegistrationMotions() {
         expanded.push_back(seg);
         continue;
       }
-      if (!patient_) {
+      const bool on_phantom = seg.kind == MotionKind::TouchLandmarks && seg.frame == PoseFrame::Phantom;
+      if (on_phantom && !tracker_T_phantom) {
+        throw InvalidArgumentError(tool.name + ": touch_landmarks in frame Phantom needs an 'nwire_phantom'");
+      }
+      if (!on_phantom && !patient_) {
         throw InvalidArgumentError(tool.name + ": touch_landmarks and trace_bone need a 'patient'");
       }
+      const Eigen::Isometry3d& tracker_T_frame = on_phantom ? *tracker_T_phantom : tracker_T_ct;
       PointerGeometry pointer;
       pointer.tip_tool = tool.tip_tool.value_or(Eigen::Vector3d::Zero());
       // The pointer keeps the orientation it starts with in the room (held as it was picked up).
       const Eigen::Matrix3d tracker_R_tool = tool.start_frame == PoseFrame::Tracker
                                                  ? Eigen::Matrix3d(tool.start.linear())
                                                  : Eigen::Matrix3d(tracker_T_ct.linear() * tool.start.linear());
-      pointer.ct_R_tool = tracker_T_ct.linear().transpose() * tracker_R_tool;
+      pointer.frame_R_tool = tracker_T_frame.linear().transpose() * tracker_R_tool;
       const Patient* patient = patient_.get();
       const auto more =
           seg.kind == MotionKind::TouchLandmarks
-              ? touchLandmarkSegments(seg, pointer, fiducials_ct)
+              ? touchLandmarkSegments(seg, pointer, on_phantom ? phantom_landmarks : fiducials_ct)
               : traceBoneSegments(seg, pointer, fiducials_ct,
                                   [patient](const Eigen::Vector3d& p) { return patient->boneDistance(p); });
       expanded.insert(expanded.end(), more.begin(), more.end());
@@ -492,7 +510,14 @@ std::string World::staticTruthJson() const {
     j["video_lag_s"] = scenario_.ultrasound.video_lag_s;
   }
   if (scenario_.patient) j["CTToReference"] = poseJson(scenario_.patient->reference_T_ct);
-  if (scenario_.nwire_phantom) j["PhantomToReference"] = poseJson(scenario_.nwire_phantom->reference_T_phantom);
+  if (scenario_.nwire_phantom) {
+    j["PhantomToReference"] = poseJson(scenario_.nwire_phantom->reference_T_phantom);
+    nlohmann::json ends = nlohmann::json::array();
+    for (const auto& w : wires_phantom_) {
+      for (const Eigen::Vector3d& p : {w.a, w.b}) ends.push_back({p.x(), p.y(), p.z()});
+    }
+    j["phantom_wires_mm"] = ends;
+  }
   if (scenario_.robot.enabled) {
     j["RobotBaseToTracker"] = poseJson(scenario_.robot.tracker_T_base);
     j["MarkerToFlange"] = poseJson(scenario_.robot.flange_T_marker);

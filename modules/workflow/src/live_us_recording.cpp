@@ -64,25 +64,36 @@ LiveUsRecording recordLiveUltrasound(const LiveUsRecordingOptions& options, cons
   });
   const auto start = Clock::now();
   source.start();
+  std::size_t monitored = 0;
+  std::string monitor_message;
   try {
     while (true) {
       const double elapsed = std::chrono::duration<double>(Clock::now() - start).count();
       std::size_t frames = 0;
       double idle = 0.0;
+      std::vector<tracking::TrackedImage> fresh;
       {
         std::lock_guard lock(mutex);
         frames = images.size();
         if (frames > 0) idle = std::chrono::duration<double>(Clock::now() - last_image).count();
+        if (options.on_frame) fresh.assign(images.begin() + static_cast<std::ptrdiff_t>(monitored), images.end());
+      }
+      // Outside the lock: the monitor may take a few ms a frame (segmentation) while frames keep arriving.
+      for (const auto& image : fresh) {
+        ++monitored;
+        if (!out.complete && options.on_frame(image, monitor_message)) out.complete = true;
       }
       if (frames == 0 && elapsed > options.connect_timeout_s) {
         throw NetworkError("no ultrasound frame from the PlusServer at " + options.host + ":" +
                            std::to_string(options.port) + " in " + std::to_string(static_cast<int>(elapsed)) +
                            " s: check that it runs and streams IMAGE messages");
       }
+      if (out.complete) break;
       if (frames > 0 && (idle > options.idle_stop_s || frames >= options.max_frames)) break;
       if (elapsed > options.max_duration_s) break;
       context.report(std::min(0.25, 0.05 + 0.2 * elapsed / options.max_duration_s),
-                     "recording the sweep: " + std::to_string(frames) + " frames");
+                     monitor_message.empty() ? "recording the sweep: " + std::to_string(frames) + " frames"
+                                             : monitor_message);
       if (context.cancelled()) throw Cancelled{};
       std::this_thread::sleep_for(std::chrono::milliseconds(20));
     }

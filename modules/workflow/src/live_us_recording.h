@@ -3,9 +3,11 @@
 // PLUS sequence, as PLUS's fCal does: every IMAGE frame with each tool's
 // transform interpolated at the frame's timestamp from the tracker samples
 // around it (Invalid when the tool was not seen within 0.1 s on both sides).
+#include <functional>
 #include <string>
 
 #include "mrsns/core/tracked_frame.h"
+#include "mrsns/tracking/tracking_source.h"
 #include "mrsns/workflow/steps.h"
 
 namespace mrsns::workflow::detail {
@@ -17,6 +19,10 @@ struct LiveUsRecordingOptions {
   double idle_stop_s = 2.0;       ///< stop when no frame came for this long after the first
   double connect_timeout_s = 10.0;
   std::size_t max_frames = 4000;  ///< the sweep is held in memory until it is written
+  /// Given each frame as it arrives, in order (on the recording's thread, not the network's): returns true when
+  /// the acquisition has what it needs (the recording then stops) and sets the progress shown. Unset: the
+  /// recording stops on idle_stop_s, max_frames or max_duration_s only.
+  std::function<bool(const tracking::TrackedImage& image, std::string& message)> on_frame;
 };
 
 struct LiveUsRecording {
@@ -28,6 +34,7 @@ struct LiveUsRecording {
   std::size_t frames_refused = 0;  ///< other size or format than the first frame
   std::size_t tool_samples = 0;
   double seconds = 0.0;
+  bool complete = false;  ///< on_frame said the acquisition had what it needs
 };
 
 /// Throws NetworkError when nothing connects or no frame arrives within the

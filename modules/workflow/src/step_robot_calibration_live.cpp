@@ -108,7 +108,7 @@ StepResult runLiveRobotCalibration(Session& session, const Json& params, const S
   const Params p("robot-calibration",
                  params, {"source", "host", "port", "ur_host", "ur_rtde_port", "ur_script_port", "ur_dashboard_port",
                           "marker", "stations", "validation_stations", "tilt_deg", "spread_mm", "speed_deg_s",
-                          "settle_s", "sample_s", "seed", "connect_timeout_s"});
+                          "settle_s", "sample_s", "seed", "connect_timeout_s", "unlock_timeout_s"});
   StationPlan plan;
   plan.stations = p.integer("stations", plan.stations);
   plan.validation_stations = p.integer("validation_stations", plan.validation_stations);
@@ -190,32 +190,69 @@ StepResult runLiveRobotCalibration(Session& session, const Json& params, const S
   std::exception_ptr robot_error;
   std::atomic<bool> abort{false};
   const double period = arm->controlPeriodS();
+  // A protective stop on the way to a station (the controller's joint limits, a collision): the station is
+  // skipped and the step waits for the operator to inspect the arm and unlock it (pendant or dashboard; the
+  // workstation never unlocks a protective stop itself), then goes on from where the arm stands.
+  std::atomic<int> stopped_at{-1};
+  const double unlock_timeout_s = p.number("unlock_timeout_s", 300.0);
   // The arm's own thread: move, settle, hold still while the tracker samples, next station; then home.
   std::thread mover([&] {
     try {
       robot::Joints from = start.q;
       for (std::size_t k = 0; k <= stations.q.size() && !abort; ++k) {
-        const robot::Joints to = k < stations.q.size() ? stations.q[k] : start.q;
+        const bool home = k == stations.q.size();
+        const robot::Joints to = home ? start.q : stations.q[k];
         const double travel = std::max(1.0, (to - from).cwiseAbs().maxCoeff() / (plan.speed_deg_s * kDeg) * 1.875);
         const auto t0 = std::chrono::steady_clock::now();
         auto next = t0;
-        const double total = travel + plan.settle_s + (k < stations.q.size() ? plan.sample_s : 0.0);
+        const double total = travel + plan.settle_s + (home ? 0.0 : plan.sample_s);
+        bool protective_stop = false;
         while (!abort) {
           const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
           if (t > total) break;
-          if (!arm->servoJ(from + (to - from) * minimumJerk(t / travel))) throw ComputationError("the UR controller refused the motion (protective stop?)");
-          if (k < stations.q.size()) holding = t >= travel + plan.settle_s ? static_cast<int>(k) : -1;
+          if (!arm->servoJ(from + (to - from) * minimumJerk(t / travel))) {
+            const auto safety = arm->state().safety;
+            if (safety != robot::SafetyMode::ProtectiveStop) {
+              throw ComputationError(std::string("the UR controller refused the motion (safety mode ") +
+                                     robot::toString(safety) + ")");
+            }
+            protective_stop = true;
+            break;
+          }
+          if (!home) holding = t >= travel + plan.settle_s ? static_cast<int>(k) : -1;
           next += std::chrono::duration_cast<std::chrono::steady_clock::duration>(std::chrono::duration<double>(period));
           std::this_thread::sleep_until(next);
         }
         holding = -1;
-        if (k < stations.q.size()) {
+        if (protective_stop) {
+          if (!home) windows[k].skipped = "protective stop on the way to it (a joint limit of the controller's "
+                                          "safety configuration, or a collision)";
+          stopped_at = static_cast<int>(k);
+          if (!home) reached = static_cast<int>(k) + 1;
+          const auto waited_from = std::chrono::steady_clock::now();
+          while (!abort) {
+            const auto safety = arm->state().safety;
+            if (safety == robot::SafetyMode::Normal || safety == robot::SafetyMode::Reduced) break;
+            if (std::chrono::steady_clock::now() - waited_from > std::chrono::duration<double>(unlock_timeout_s)) {
+              throw ComputationError("protective stop on the way to station " + std::to_string(k + 1) +
+                                     " not unlocked within " + formatFixed(unlock_timeout_s, 0) + " s");
+            }
+            std::this_thread::sleep_for(std::chrono::milliseconds(50));
+          }
+          stopped_at = -1;
+          from = arm->state().q;
+          if (home) --k;  // home is where the arm must end: try again from where it stands
+          continue;
+        }
+        if (!home) {
           windows[k].base_T_flange = arm->state().base_T_flange;
           windows[k].q = arm->state().q;
           if ((windows[k].q - to).cwiseAbs().maxCoeff() > 0.5 * kDeg) windows[k].skipped = "the arm did not reach it";
         }
         reached = static_cast<int>(k) + 1;
-        from = to;
+        // The next move starts where the arm is, not where it was sent: after a station it could not reach, a
+        // path from the unreached target would open with a jump.
+        from = arm->state().q;
       }
       stopUntilAtRest(*arm);
     } catch (...) {
@@ -233,6 +270,13 @@ StepResult runLiveRobotCalibration(Session& session, const Json& params, const S
       w.last = so_far.size();
     }
     const auto n = static_cast<int>(stations.q.size());
+    if (const int stop = stopped_at.load(); stop >= 0) {
+      message = "protective stop on the way to " +
+                (stop < n ? "station " + std::to_string(stop + 1) : std::string("the start pose")) +
+                ": inspect the arm's workspace, then unlock the protective stop on the teach pendant; the "
+                "calibration goes on without that station";
+      return false;
+    }
     message = reached.load() > n ? std::string("returning the robot to where it started")
                                  : "moving the robot through its calibration stations: " +
                                        std::to_string(reached.load()) + " of " + std::to_string(n) + " done";

@@ -70,39 +70,152 @@ Json errorFigures(const ultrasound::CalibrationErrorReport& e) {
               {"frames", e.frames}};
 }
 
+
+/// The phantom's place on its reference: the session's phantom registration (us-phantom-registration) replaces
+/// the device set's PhantomToReference when `which` is "session" (the default for a live sweep: the phantom
+/// was registered in this room), the file's is kept for "config" (a recording made with that file).
+std::string usePhantomRegistration(const Session& session, const std::string& which, io::DeviceSetConfiguration& config) {
+  if (which == "config") {
+    if (!config.findTransform("Phantom", "Reference")) {
+      throw InvalidArgumentError("us-spatial-calibration: " + config.source +
+                                 " has no PhantomToReference: run us-phantom-registration and give "
+                                 "phantom_to_reference=session");
+    }
+    return "device set " + config.source;
+  }
+  if (which != "session") {
+    throw InvalidArgumentError("us-spatial-calibration: phantom_to_reference must be session or config, not '" +
+                               which + "'");
+  }
+  const auto registration = session.step("us-phantom-registration");
+  Eigen::Matrix4d reference_T_phantom;
+  if (!registration.is_object() || registration.value("status", "") != "ok" ||
+      !findRecordedTransform(session, "PhantomToReference", reference_T_phantom)) {
+    throw InvalidArgumentError(
+        "us-spatial-calibration: the session has no phantom registration: run us-phantom-registration (touch the "
+        "N-wire phantom's landmarks with the calibrated stylus) first, or give phantom_to_reference=config to use "
+        "the device set's");
+  }
+  std::erase_if(config.coordinate_definitions, [](const io::CoordinateDefinition& d) {
+    return (d.from == "Phantom" && d.to == "Reference") || (d.from == "Reference" && d.to == "Phantom");
+  });
+  io::CoordinateDefinition d;
+  d.from = "Phantom";
+  d.to = "Reference";
+  d.to_T_from = reference_T_phantom;
+  config.coordinate_definitions.push_back(d);
+  return "us-phantom-registration";
+}
+
+/// A live sweep's frames split as fCal acquires them, calibration and validation apart: every third frame
+/// validates, so both cover the whole sweep.
+void splitSweep(const TrackedSequence& sweep, TrackedSequence& calibration, TrackedSequence& validation) {
+  calibration = sweep;
+  calibration.frames.clear();
+  validation = calibration;
+  for (std::size_t i = 0; i < sweep.frames.size(); ++i) {
+    (i % 3 == 2 ? validation : calibration).frames.push_back(sweep.frames[i]);
+  }
+}
+
 }  // namespace
 
 StepResult runUsSpatialCalibration(Session& session, const Json& params, const StepContext& context) {
   const Params p("us-spatial-calibration", params,
                  {"config", "calibration", "validation", "tracker_lag_ms", "source", "host", "port", "duration_s",
-                  "idle_stop_s", "connect_timeout_s"});
+                  "idle_stop_s", "connect_timeout_s", "segmented_frames", "phantom_to_reference"});
+  const std::string source = p.text("source", "file");
+  if (source != "file" && source != "plus") {
+    throw InvalidArgumentError("us-spatial-calibration: source must be file or plus, not '" + source + "'");
+  }
+  Inputs in;
+  context.report(0.02, "reading the device set");
+  in.config = io::readDeviceSet(dataPath(p, "config", kConfig));
+  const std::string phantom_source =
+      usePhantomRegistration(session, p.text("phantom_to_reference", source == "plus" ? "session" : "config"), in.config);
   // source=plus: the calibration sweep is recorded live from a PlusServer (or mrsns-sim) into the session first,
-  // as fCal does; the step then calibrates on that recording, which the offline verbs can recompute.
+  // as fCal does: until enough frames show all the wires (fCal's 140 calibration and 70 validation images);
+  // the step then calibrates on that recording, which the offline verbs can recompute.
   std::optional<LiveUsRecording> live;
   std::string live_sweep;
-  const std::string source = p.text("source", "file");
+  std::size_t segmented_live = 0, seen_live = 0;
   if (source == "plus") {
-    if (p.has("calibration")) {
-      throw InvalidArgumentError("us-spatial-calibration: give either source=plus (record the sweep) or calibration");
+    for (const char* key : {"calibration", "validation"}) {
+      if (p.has(key)) {
+        throw InvalidArgumentError(std::string("us-spatial-calibration: ") + key +
+                                   " is a recording (source=file); source=plus records the sweep and validates on "
+                                   "every third frame of it");
+      }
     }
     LiveUsRecordingOptions o;
     sessionPlusServer(session, p, o.host, o.port);
     o.max_duration_s = p.number("duration_s", o.max_duration_s);
     o.idle_stop_s = p.number("idle_stop_s", o.idle_stop_s);
     o.connect_timeout_s = p.number("connect_timeout_s", o.connect_timeout_s);
+    const int wanted = p.integer("segmented_frames", 210);
     if (!(o.max_duration_s > 0.0 && o.max_duration_s <= 3600.0) || !(o.idle_stop_s > 0.0) ||
-        !(o.connect_timeout_s > 0.0)) {
+        !(o.connect_timeout_s > 0.0) || wanted < 6 || wanted > 3000) {
       throw InvalidArgumentError(
-          "us-spatial-calibration: duration_s must be in (0, 3600] s, idle_stop_s and connect_timeout_s > 0");
+          "us-spatial-calibration: duration_s must be in (0, 3600] s, idle_stop_s and connect_timeout_s > 0, "
+          "segmented_frames in [6, 3000]");
     }
+    const io::PhantomDefinition& phantom = in.config.requirePhantom();
+    const auto segmentation = in.config.segmentation ? ultrasound::segmentationOptionsFrom(*in.config.segmentation)
+                                                     : ultrasound::NWireSegmentationOptions{};
+    // Each frame segmented as it arrives: the operator sees how many frames show every wire (fCal's count).
+    o.on_frame = [&](const tracking::TrackedImage& image, std::string& message) {
+      ++seen_live;
+      const bool gray = image.format.scalar == PixelType::UInt8 && image.format.components == 1 &&
+                        image.geometry.size[2] == 1;
+      if (gray) {
+        const ultrasound::GrayImageView view{static_cast<int>(image.geometry.size[0]),
+                                             static_cast<int>(image.geometry.size[1]), image.pixels};
+        if (ultrasound::segmentNWires(view, phantom, segmentation).ok()) ++segmented_live;
+      }
+      message = gray ? "sweep the probe over the N-wires: all wires found in " + std::to_string(segmented_live) +
+                           " of " + std::to_string(wanted) + " frames needed (" + std::to_string(seen_live) +
+                           " received)"
+                     : "the PlusServer sends no 8-bit grey B-mode frames: the N-wires cannot be segmented";
+      return static_cast<int>(segmented_live) >= wanted;
+    };
     context.report(0.05, "recording the calibration sweep from " + o.host + ":" + std::to_string(o.port));
     live = recordLiveUltrasound(o, context);
     live_sweep = freeSessionName(session, "us-spatial-calibration", "calibration_sweep", ".igs.mha");
     io::writeSequence(session.resolve(live_sweep), live->sequence);
-  } else if (source != "file") {
-    throw InvalidArgumentError("us-spatial-calibration: source must be file or plus, not '" + source + "'");
+    if (!live->complete) {
+      StepResult failed;
+      failed.ok = false;
+      failed.outputs = {live_sweep};
+      failed.figures = {{"recorded", {{"file", live_sweep}, {"frames", live->sequence.frames.size()}}},
+                        {"segmented_frames", segmented_live},
+                        {"segmented_frames_needed", wanted},
+                        {"simulated", fromSimulatedRoom(live->device_identity)}};
+      failed.summary = "only " + std::to_string(segmented_live) + " of " + std::to_string(seen_live) +
+                       " frames showed all the N-wires, " + std::to_string(wanted) +
+                       " needed: keep the probe in the water bath over the wires and sweep slowly (the recording "
+                       "is kept: " + live_sweep + ")";
+      return failed;
+    }
+    splitSweep(live->sequence, in.calibration, in.validation);
+  } else {
+    for (const char* key : {"host", "port", "duration_s", "idle_stop_s", "connect_timeout_s", "segmented_frames"}) {
+      if (p.has(key)) throw InvalidArgumentError(std::string("us-spatial-calibration: ") + key + " is for source=plus");
+    }
+    const bool has_calibration = p.has("calibration"), has_validation = p.has("validation");
+    context.report(0.1, "reading the calibration recording");
+    in.calibration_path = dataPath(p, "calibration", kCalibration);
+    in.calibration = io::readSequence(in.calibration_path);
+    checkCancel(context);
+    if (has_calibration && !has_validation) {
+      // A user's own recording without a separate validation sweep: validate on every third frame of it.
+      const TrackedSequence whole = std::move(in.calibration);
+      splitSweep(whole, in.calibration, in.validation);
+    } else {
+      context.report(0.25, "reading the validation recording");
+      in.validation = io::readSequence(dataPath(p, "validation", kValidation));
+    }
   }
-  const Inputs in = readInputs(p, context, live ? &live->sequence : nullptr);
+  checkCancel(context);
   // tracker_lag_ms: a number (ms), or "auto" (estimated from the
   // calibration sweep, none when the sweep does not pin it down). Without
   // it, PLUS's workflow: the lag of this session's temporal calibration when
@@ -153,10 +266,14 @@ StepResult runUsSpatialCalibration(Session& session, const Json& params, const S
       {"tracker_lag_ms", run.tracker_lag.lag_s * 1e3},
       {"tracker_lag_estimated", run.tracker_lag.estimated},
       {"tracker_lag_source", lag_source},
-      // PLUS's own result on the same files (data/README.md).
-      {"plus_reference",
-       {{"calibration_reprojection_3d_mean_mm", 1.15532}, {"validation_reprojection_3d_mean_mm", 1.24684}}},
+      {"phantom_to_reference_source", phantom_source},
       {"transforms", {{"ImageToProbe", matrixJson(r.probe_T_image)}}}};
+  const bool plus_files = !live && !p.has("calibration") && !p.has("validation") && !p.has("config");
+  if (plus_files) {
+    // PLUS's own result on the same files (data/README.md).
+    result.figures["plus_reference"] = {{"calibration_reprojection_3d_mean_mm", 1.15532},
+                                        {"validation_reprojection_3d_mean_mm", 1.24684}};
+  }
   if (!run.tracker_lag.note.empty()) result.figures["tracker_lag_note"] = run.tracker_lag.note;
   if (run.tracker_lag_check) {
     const auto& c = *run.tracker_lag_check;
@@ -179,7 +296,11 @@ StepResult runUsSpatialCalibration(Session& session, const Json& params, const S
                                   {"frames_refused", live->frames_refused},
                                   {"tool_samples", live->tool_samples},
                                   {"seconds", live->seconds},
+                                  {"segmented_while_recording", segmented_live},
                                   {"device_identity", live->device_identity}};
+    result.figures["offline_command"] = "mrsns-cli session run " + session.folder().string() +
+                                        " us-spatial-calibration --param calibration=" +
+                                        session.resolve(live_sweep).string() + " --param phantom_to_reference=session";
     result.figures["simulated"] = simulated;
   }
   std::ostringstream s;
@@ -190,7 +311,8 @@ StepResult runUsSpatialCalibration(Session& session, const Json& params, const S
         : lag_source == "us-temporal-calibration" ? " (from the temporal calibration)"
                                                   : "")
     << ": validation 3D reprojection " << run.validation_errors.reprojection_3d_mean_mm << " +/- "
-    << run.validation_errors.reprojection_3d_std_mm << " mm (PLUS 1.25 +/- 0.49, without a lag)";
+    << run.validation_errors.reprojection_3d_std_mm << " mm" << (plus_files ? " (PLUS 1.25 +/- 0.49, without a lag)" : "")
+    << "; phantom from " << phantom_source;
   if (run.tracker_lag_check && run.tracker_lag_check->significant) {
     s << "; the sweep fits better with a tracker lag of " << run.tracker_lag_check->estimate.lag_s * 1e3
       << " ms: run the US temporal calibration, then this step again";

@@ -17,8 +17,12 @@ std::vector<StepInfo> listSteps() {
        "Tracker (simulated, PlusServer over OpenIGTLink, or playback of a PLUS recording): tools seen, rate, jitter"},
       {"pivot-calibration", "Tool pivot calibration", "preparation",
        "Tip of the stylus (or drill) from pivoting it in a divot, recorded live from the PlusServer"},
+      {"us-phantom-registration", "Ultrasound phantom registration", "preparation",
+       "PhantomToReference from the N-wire phantom's landmarks touched with the calibrated stylus (fCal's phantom "
+       "registration), recorded live from the PlusServer"},
       {"us-spatial-calibration", "Ultrasound spatial calibration", "preparation",
-       "N-wire calibration of ImageToProbe on a tracked recording (PLUS fCal data by default)"},
+       "N-wire calibration of ImageToProbe from a live sweep (source=plus) or a tracked recording (PLUS fCal data by "
+       "default)"},
       {"us-temporal-calibration", "Ultrasound temporal calibration", "preparation",
        "Tracker lag behind the video, from the same N-wire recording (reprojection error over lags)"},
       {"robot-calibration", "Robot calibration", "preparation",
@@ -40,6 +44,7 @@ StepResult runStep(Session& session, const std::string& step, const nlohmann::js
   static const std::pair<const char*, Runner> kRunners[] = {
       {"connect-devices", detail::runConnectDevices},
       {"pivot-calibration", detail::runPivotCalibration},
+      {"us-phantom-registration", detail::runUsPhantomRegistration},
       {"us-spatial-calibration", detail::runUsSpatialCalibration},
       {"us-temporal-calibration", detail::runUsTemporalCalibration},
       {"robot-calibration", detail::runRobotCalibration},

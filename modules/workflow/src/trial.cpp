@@ -4,6 +4,7 @@
 #include <chrono>
 #include <fstream>
 #include <memory>
+#include <optional>
 
 #include "mrsns/core/data_dir.h"
 #include "mrsns/core/error.h"
@@ -37,6 +38,9 @@ struct PlannedStep {
   nlohmann::json params;
   bool needs_plus_data = false;
   bool last_in_room = false;  ///< the room stops after this step (its live acquisitions are done)
+  /// Run in the PLUS-comparison session, not the trial's: the real recording's calibration is compared with
+  /// PLUS's, while the trial's session keeps the room's own (what the scorer judges and navigation uses).
+  bool plus_comparison = false;
 };
 
 }  // namespace
@@ -105,6 +109,13 @@ TrialResult runPhantomTrial(const TrialOptions& options) {
     registration["duration_s"] = 120.0;
     plan.push_back({"pivot-calibration", pivot});
     plan.push_back({"registration", registration});
+    // The N-wire phantom: its landmarks touched, then the probe swept over its wires (fCal's workflow).
+    nlohmann::json phantom = at_room;
+    phantom["duration_s"] = 90.0;
+    plan.push_back({"us-phantom-registration", phantom});
+    nlohmann::json sweep = at_room;
+    sweep["duration_s"] = 90.0;
+    plan.push_back({"us-spatial-calibration", sweep});
     // The room's UR: its stations are driven by the workstation, at any time of the room's timeline.
     nlohmann::json robot = at_room;
     robot["source"] = "ur";
@@ -115,8 +126,9 @@ TrialResult runPhantomTrial(const TrialOptions& options) {
     robot["seed"] = seed;
     plan.push_back({"robot-calibration", robot, false, true});
   }
-  plan.push_back({"us-spatial-calibration", nlohmann::json::object(), true});
-  plan.push_back({"us-temporal-calibration", nlohmann::json::object(), true});
+  // The real recording (PLUS's fCal data), compared with PLUS's own result.
+  plan.push_back({"us-spatial-calibration", nlohmann::json::object(), true, false, room != nullptr});
+  plan.push_back({"us-temporal-calibration", nlohmann::json::object(), true, false, room != nullptr});
   if (!room) {
     plan.push_back({"robot-calibration", {{"source", "simulated"}, {"seed", seed}}});
     plan.push_back({"registration", {{"source", "simulated"}, {"seed", seed}}});
@@ -132,8 +144,13 @@ TrialResult runPhantomTrial(const TrialOptions& options) {
   result.ok = true;
   result.folder = options.out;
   nlohmann::json steps = nlohmann::json::object();
+  nlohmann::json plus_steps = nlohmann::json::object();
+  std::optional<Session> plus_session;
   for (std::size_t i = 0; i < plan.size(); ++i) {
     const auto& step = plan[i];
+    if (step.plus_comparison && !plus_session) plus_session = Session::create(options.out / "plus_comparison");
+    Session& in = step.plus_comparison ? *plus_session : session;
+    nlohmann::json& recorded = step.plus_comparison ? plus_steps : steps;
     StepContext context;
     context.cancel = options.context.cancel;
     const double lo = static_cast<double>(i) / static_cast<double>(plan.size());
@@ -142,23 +159,23 @@ TrialResult runPhantomTrial(const TrialOptions& options) {
       options.context.report(lo + (hi - lo) * f, step.name + ": " + message);
     };
     if (step.needs_plus_data && !have_plus) {
-      steps[step.name] = {{"status", "skipped"},
+      recorded[step.name] = {{"status", "skipped"},
                           {"summary", "the PLUS recording is not in the data directory '" + dataDirectory().string() +
                                           "' (set MRSNS_DATA_DIR)"}};
-      session.log("warn", step.name + " skipped: no PLUS recording");
+      in.log("warn", step.name + " skipped: no PLUS recording");
       continue;
     }
     try {
-      const auto r = runStep(session, step.name, step.params, context);
-      steps[step.name] = session.step(step.name);
+      const auto r = runStep(in, step.name, step.params, context);
+      recorded[step.name] = in.step(step.name);
       if (r.cancelled) {
         result.ok = false;
         break;
       }
       result.ok = result.ok && r.ok;
     } catch (const Error& e) {
-      steps[step.name] = {{"status", "failed"}, {"summary", e.what()}};
-      session.log("error", step.name + ": " + e.what());
+      recorded[step.name] = {{"status", "failed"}, {"summary", e.what()}};
+      in.log("error", step.name + ": " + e.what());
       result.ok = false;
     }
     if (step.last_in_room && room) room_report["exit_code"] = room->stop();
@@ -200,6 +217,7 @@ TrialResult runPhantomTrial(const TrialOptions& options) {
             {"seconds", seconds},
             {"session", "session"},
             {"steps", steps},
+            {"plus_comparison", {{"session", plus_session ? "plus_comparison" : ""}, {"steps", plus_steps}}},
             {"paper", paperReferenceFigures()},
             {"simulated_room", room_report},
             {"images", images},

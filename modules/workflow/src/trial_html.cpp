@@ -119,6 +119,11 @@ std::string renderTrialHtml(const nlohmann::json& report) {
     std::string note;
   };
   const std::string fig = "/figures/";
+  // The real recording's calibrations: in their own session when the trial ran a room (whose session holds the
+  // room's calibration), else in the trial's.
+  const auto plus_steps = at(report, "plus_comparison/steps");
+  const auto us_steps = plus_steps.is_object() && !plus_steps.empty() ? plus_steps : steps;
+  const bool live_us = at(steps, "us-spatial-calibration/figures/recorded/device_identity").is_string();
   const auto cube = at(steps, "hmd-calibration/figures/cube_trial");
   const auto board = at(steps, "hmd-calibration/figures/checkerboard_trial");
   const auto robot = at(steps, "robot-placement/figures/module_trial");
@@ -129,14 +134,22 @@ std::string renderTrialHtml(const nlohmann::json& report) {
                                  at(steps, "registration/figures/source").get<std::string>() != "simulated";
   const std::vector<Row> rows = {
       {"US calibration, validation 3D reprojection (mm)",
-       number(at(steps, "us-spatial-calibration" + fig + "validation/reprojection_3d_mean_mm")),
+       number(at(us_steps, "us-spatial-calibration" + fig + "validation/reprojection_3d_mean_mm")),
        meanSd(at(paper, "plus_us_calibration_validation_mm")),
        "PLUS ProbeCalibration on the same recording; both as recorded, without a tracker lag"},
       {"US temporal calibration, tracker lag (ms)",
-       number(at(steps, "us-temporal-calibration" + fig + "tracker_lag_ms")), "&ndash;", "PLUS's result assumes 0 ms"},
+       number(at(us_steps, "us-temporal-calibration" + fig + "tracker_lag_ms")), "&ndash;", "PLUS's result assumes 0 ms"},
       {"US calibration with that lag applied, validation 3D reprojection (mm)",
-       number(at(steps, "us-temporal-calibration" + fig + "validation_reprojection_3d_mean_mm_at_lag")), "&ndash;",
+       number(at(us_steps, "us-temporal-calibration" + fig + "validation_reprojection_3d_mean_mm_at_lag")), "&ndash;",
        "the lag estimated from the calibration sweep, applied to both recordings"},
+      {"US calibration in the simulated room, ImageToProbe error at the image's corners (mm, mean)",
+       live_us ? number(at(report, "simulated_room/score/scored/us_spatial_calibration/error/mean_mm")) : "&ndash;",
+       "&ndash;",
+       live_us ? "phantom registered by touching its landmarks, probe swept over the wires in the room; scored from "
+                 "outside (validation reprojection " +
+                     number(at(steps, "us-spatial-calibration" + fig + "validation/reprojection_3d_mean_mm")) +
+                     " mm)"
+               : "not acquired in a room"},
       {"Registration, landmark FRE (mm)", number(at(steps, "registration" + fig + "landmarks/fre_rms_mm")), "&ndash;",
        live_registration ? "fiducial screws touched with the tracked stylus in the simulated room (noise model below)"
                          : "8 fiducial screws, 0.5 mm FLE (in-process simulated patient)"},

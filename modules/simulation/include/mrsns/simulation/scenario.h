@@ -32,7 +32,7 @@ enum class MotionKind { Hold, Move, Sweep, Pivot, UpDown, TouchLandmarks, TraceB
 /// A landmark touched at the wrong place (a fault of a registration).
 struct MisplacedTouch {
   int landmark = 1;  ///< 1-based, in the order touched
-  Eigen::Vector3d offset_ct = Eigen::Vector3d::Zero();
+  Eigen::Vector3d offset = Eigen::Vector3d::Zero();  ///< mm, in the segment's frame
 };
 
 /// One step of the virtual operator's timeline for one tool.
@@ -52,8 +52,9 @@ struct MotionSegment {
   bool one_axis = false;                                 ///< pivot about one axis only (a degenerate acquisition)
   double amplitude_mm = 10.0;                            ///< up_down
   Eigen::Vector3d axis_tool = Eigen::Vector3d::UnitZ();  ///< up_down direction (tool frame)
-  /// touch_landmarks: the points touched in order (CT mm); empty: the patient's fiducials.
-  std::vector<Eigen::Vector3d> points_ct;
+  /// touch_landmarks: the points touched in order (mm, in `frame`: CT or Phantom); empty: the patient's
+  /// fiducials (CT) or the N-wire phantom definition's landmarks (Phantom).
+  std::vector<Eigen::Vector3d> points;
   /// touch_landmarks, per landmark: travel_s to approach_mm above it along the tool's axis, 0.5 s down,
   /// dwell_s held on it, 0.5 s up.
   double travel_s = 1.5;
@@ -209,6 +210,9 @@ struct RobotSpec {
   Eigen::Vector3d drill_tip_flange = Eigen::Vector3d(0.0, 0.0, 150.0);
   std::string marker_tool = "FlangeToTracker";
   std::array<double, 6> start_joints{0.0, -1.5708, 1.5708, -1.5708, -1.5708, 0.0};
+  /// The controller's safety configuration narrowing a joint's range (rad): a servo target beyond it is refused
+  /// and the arm stays where it was (a station the arm cannot reach). Unset: the UR5's own +/-360 deg.
+  std::array<std::optional<std::pair<double, double>>, 6> joint_limits{};
   /// The operator guiding the arm by hand (freedrive), one waypoint after the other from the start joints:
   /// joints (rad) reached with a minimum-jerk profile over each duration. While guided, the arm follows the hand,
   /// not the controller's commands.
