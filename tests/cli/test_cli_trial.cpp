@@ -35,10 +35,12 @@ TEST(CliTrial, ShortTrialReportHasEveryFigure) {
       {"us-spatial-calibration",
        {"/validation/reprojection_3d_mean_mm", "/calibration/reprojection_3d_mean_mm", "/pixel_spacing_mm",
         "/transforms/ImageToProbe", "/recorded/file", "/phantom_to_reference_source"}},
+      {"us-temporal-calibration", {"/tracker_lag_ms", "/simulated", "/recorded/video"}},
       {"robot-calibration",
        {"/residual_rms_mm", "/validation_error_mm/mean", "/transforms/RobotBaseToTracker", "/transforms/MarkerToFlange",
         "/recorded/stations_file"}},
       {"pivot-calibration", {"/tip_marker_mm", "/rms_mm", "/recorded/file"}},
+      {"drill-calibration", {"/tip_marker_mm", "/rms_mm", "/recorded/file", "/transforms/FlangeTipToFlange"}},
       {"registration",
        {"/landmarks/fre_rms_mm", "/landmarks/matched", "/surface/rms_mm", "/tre_predicted_at_screws/rms", "/targets",
         "/models", "/paths", "/transforms/CTToPatient", "/recorded/file"}},
@@ -94,12 +96,16 @@ TEST(CliTrial, ShortTrialReportHasEveryFigure) {
   ASSERT_TRUE(room["score"]["scored"].contains("registration")) << room["score"].dump();
   EXPECT_TRUE(room["score"]["scored"]["registration"].contains("error_at_planned_screws"));
   EXPECT_TRUE(room["score"]["scored"].contains("pivot_calibration")) << room["score"].dump();
+  EXPECT_TRUE(room["score"]["scored"].contains("drill_calibration")) << "the drill pivoted by hand in freedrive";
   EXPECT_TRUE(room["score"]["scored"].contains("robot_calibration")) << "the room's UR, driven by the workstation";
   EXPECT_EQ(steps["robot-calibration"]["figures"]["source"], "ur");
   EXPECT_TRUE(room["score"]["scored"].contains("us_phantom_registration")) << room["score"].dump();
   EXPECT_TRUE(room["score"]["scored"].contains("us_spatial_calibration"))
       << "the probe swept over the room's phantom: its truth judges ImageToProbe";
   EXPECT_EQ(steps["us-spatial-calibration"]["figures"]["phantom_to_reference_source"], "us-phantom-registration");
+  EXPECT_TRUE(room["score"]["scored"].contains("us_temporal_calibration")) << room["score"].dump();
+  EXPECT_EQ(steps["us-spatial-calibration"]["figures"]["tracker_lag_source"], "us-temporal-calibration")
+      << "the sweep is calibrated with the lag the room's temporal calibration found";
   EXPECT_TRUE(std::filesystem::exists(dir / "room" / "truth.json"));
   EXPECT_EQ(slurpFile(dir / "session" / "session.json").find("fiducials_ct\""), std::string::npos);
   EXPECT_NE(steps["robot-placement"]["figures"]["registration_error"].get<std::string>().find("not included"),

@@ -168,6 +168,72 @@ TEST_P(StopCondition, StopsInTheDetectionCycleAndNeedsAcknowledge) {
 INSTANTIATE_TEST_SUITE_P(EveryStopCondition, StopCondition, ::testing::ValuesIn(cases()),
                          [](const ::testing::TestParamInfo<FaultCase>& param_info) { return param_info.param.name; });
 
+// The controller loses the first stop (a dropped packet, a script interface that was not listening): the
+// supervisor sends the stop again every cycle until the arm is at rest, so the arm still stops, one cycle later
+// than it would have. One condition per stop command: StopJ (the drill not tracked) and ProtectiveStop (the soft
+// tissue within the margin).
+class LostStop : public ::testing::TestWithParam<FaultCase> {};
+
+TEST_P(LostStop, TheStopIsRepeatedEveryCycleUntilTheArmIsAtRest) {
+  const FaultCase& fc = GetParam();
+  Scene s;
+  SimulatedArmOptions lossy;
+  lossy.stops_lost = 1;
+  s.arm = std::make_shared<SimulatedArm>(lossy);
+  fc.configure(s);
+  s.build();
+  ASSERT_TRUE(s.loop->enable());
+  ASSERT_TRUE(s.loop->startPlacement());
+  ASSERT_TRUE(s.runUntil(fc.phase, 3000)) << toString(s.loop->supervisor().state());
+  for (int k = 0; k < 200 && s.loop->supervisor().state() == fc.phase; ++k) s.tickAndStep();
+  ASSERT_EQ(s.loop->supervisor().state(), fc.phase);
+  const double speed_before = s.arm->state().qd.cwiseAbs().maxCoeff();
+  ASSERT_GT(speed_before, 1e-4) << "the arm should be moving when the fault comes";
+
+  fc.inject(s);
+  const CycleReport first = s.loop->tick(s.sense(), s.cycle_time_s, s.missed);
+  s.arm->step();
+  ASSERT_NE(first.stop_sent, StopCommand::None);
+  EXPECT_FALSE(first.decision.stop_repeated);
+  EXPECT_EQ(s.arm->lostStops(), 1U) << "the controller lost that stop";
+  EXPECT_GT(s.arm->state().qd.cwiseAbs().maxCoeff(), 0.5 * speed_before) << "so the arm still moves";
+
+  const CycleReport second = s.tickAndStep();
+  EXPECT_EQ(second.stop_sent, first.stop_sent) << "the same stop, in the very next cycle";
+  EXPECT_TRUE(second.decision.stop_repeated);
+  EXPECT_EQ(second.decision.reason, fc.expected);
+  EXPECT_FALSE(second.motion_sent);
+  int cycles = 2;
+  for (; cycles < 1000 && !s.arm->state().qd.isZero(0.0); ++cycles) {
+    const CycleReport r = s.tickAndStep();
+    EXPECT_NE(r.stop_sent, StopCommand::None) << "repeated while the arm moves, cycle " << cycles;
+    EXPECT_FALSE(r.motion_sent);
+  }
+  // Within the stopping-time limit counted from the stop that arrived: one cycle later than without the loss.
+  EXPECT_LE((cycles - 1) * s.arm->controlPeriodS(), s.arm->options().stop_time_limit_s)
+      << "stop took " << cycles << " cycles";
+  // At rest: no more stops go out (the controller is not flooded), and nothing moves the arm.
+  for (int k = 0; k < 20; ++k) {
+    const CycleReport r = s.tickAndStep();
+    EXPECT_EQ(r.stop_sent, StopCommand::None);
+    EXPECT_FALSE(r.motion_sent);
+  }
+}
+
+// Both while aligning, where the arm moves fastest: a slow advance would come to rest at its last servo target
+// within a cycle whether the stop arrived or not.
+INSTANTIATE_TEST_SUITE_P(StopJAndProtectiveStop, LostStop, ::testing::ValuesIn([] {
+                           std::vector<FaultCase> chosen;
+                           for (auto c : cases()) {
+                             const std::string name = c.name;
+                             if (name != "ToolNotTracked" && name != "SoftTissueMargin") continue;
+                             c.phase = SupervisorState::Aligning;
+                             chosen.push_back(c);
+                           }
+                           return chosen;
+                         }()),
+                         [](const ::testing::TestParamInfo<FaultCase>& param_info) { return param_info.param.name; });
+
 // Conditions that come from the motion itself: the stop must go out in the first cycle whose state
 // shows the violation.
 TEST(StopCondition, OverSpeedStopsInTheFirstCycleAboveTheLimit) {

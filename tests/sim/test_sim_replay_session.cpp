@@ -44,7 +44,8 @@ TEST(SimReplaySession, TheReplayedFcalSweepCalibratesInTheSessionAsOffline) {
   const auto step =
       runCli({"session", "run", (dir / "session").string(), "us-spatial-calibration", "--param", "source=plus",
               "--param", "port=" + std::to_string(ready["plus_port"].get<int>()), "--param", "idle_stop_s=1.5",
-              "--param", "config=" + config.string(), "--param", "validation=" + validation.string(), "--json"});
+              "--param", "config=" + config.string(), "--param", "validation=" + validation.string(), "--param",
+              "phantom_to_reference=config", "--json"});
   const auto end = sim.wait(60.0);
   ASSERT_EQ(step.exit_code, 0) << step.err;
   ASSERT_EQ(end.exit_code, 0) << end.err;
@@ -84,7 +85,8 @@ TEST(SimReplaySession, NoPlusServerIsOneLineNamingWhereItLooked) {
   ASSERT_EQ(runCli({"session", "create", (dir / "session").string()}).exit_code, 0);
   const int port = closedPort();
   const auto r = runCli({"session", "run", (dir / "session").string(), "us-spatial-calibration", "--param",
-                         "source=plus", "--param", "port=" + std::to_string(port), "--param", "connect_timeout_s=1"});
+                         "source=plus", "--param", "port=" + std::to_string(port), "--param", "connect_timeout_s=1",
+                         "--param", "phantom_to_reference=config"});
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_NE(r.err.find("127.0.0.1:" + std::to_string(port)), std::string::npos) << r.err;
   EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;

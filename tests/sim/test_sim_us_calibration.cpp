@@ -47,6 +47,8 @@ std::filesystem::path writeUsScenario(const std::filesystem::path& dir, int seed
   s.erase("patient");
   s.erase("robot");
   s.erase("faults");
+  s.erase("flat_target");
+  s["ultrasound"]["video_lag_s"] = 0.0;  // the lag is the temporal calibration's test (SimTemporal, the trial)
   Json tools = Json::array();
   for (auto tool : s["tools"]) {
     const std::string name = tool["name"];
@@ -65,6 +67,9 @@ std::filesystem::path writeUsScenario(const std::filesystem::path& dir, int seed
       // landmarks are touched (and a second more, the workstation's step change).
       EXPECT_EQ(tool["motion"][0]["kind"], "hold");
       tool["motion"][0]["duration_s"] = kTouchStart_s + 8 * kTouch_s + 1.0;
+      // Without the default's temporal calibration (up and down over the bath's floor) before the sweep.
+      auto& motion = tool["motion"];
+      if (motion.size() > 2 && motion[2]["kind"] == "up_down") motion.erase(motion.begin() + 1, motion.begin() + 3);
     }
     tools.push_back(tool);
   }

@@ -233,6 +233,57 @@ TEST(OperatingRoom, AHandGuidedArmCarriesItsMarkerWhereTheKinematicsPutIt) {
   EXPECT_GT((expected - before).norm(), 50.0) << "the guided motion is large enough to tell";
 }
 
+TEST(OperatingRoom, AHandPivotedDrillKeepsItsTipInPlaceWhileItsMarkerSwings) {
+  // From 0.3 s the operator pivots the drill about its tip (a 20 deg cone, one turn in 1.5 s), then lets go.
+  auto scenario = parseScenario(R"({"format": "mrsns-scenario/1", "tracker": {"port": 0},
+      "robot": {"ports": {"rtde": 0, "dashboard": 0, "secondary": 0, "realtime": 0},
+                "base_to_tracker": {"translation_mm": [400, 300, -1450]},
+                "marker_to_flange": {"translation_mm": [0, 0, 40]}, "drill_tip_mm": [0, 0, 150],
+                "hand_guided": [{"at_s": 0.3, "pivot_drill": {"amplitude_deg": 20, "cycles": 1}, "duration_s": 1.5}]},
+      "duration_s": 2.2})",
+                                ".");
+  OperatingRoom room(scenario);
+  room.start();
+  Recorder recorder(room.endpoints().plus_port);
+  while (!room.finished()) std::this_thread::sleep_for(20ms);
+  room.stop();
+  const auto dir = test::scratchDirectory("guided-pivot");
+  room.writeTruth(dir / "truth.json");
+  const auto truth = readJson(dir / "truth.json");
+  const double utc0 = truth["utc_start"].get<double>();
+  const auto& tip_json = truth["static"]["tool_tips_mm"]["FlangeToTracker"];
+  const Eigen::Vector3d tip_marker(tip_json[0].get<double>(), tip_json[1].get<double>(), tip_json[2].get<double>());
+  EXPECT_TRUE(tip_marker.isApprox(Eigen::Vector3d(0, 0, 110), 1e-9)) << "the drill tip in its marker's frame";
+  std::vector<Eigen::Vector3d> tips;
+  double max_angle_deg = 0.0;
+  Eigen::Matrix3d first_rotation = Eigen::Matrix3d::Identity();
+  bool have_first = false;
+  for (const auto& m : recorder.messages()) {
+    if (m.header.device_name != "FlangeToTracker") continue;
+    const double t = m.header.timestampSeconds() - utc0;
+    if (t < 0.3 || t > 1.8) continue;
+    const Eigen::Matrix4d pose = m.as<igtlink::TransformContent>()->matrix;
+    tips.push_back(pose.block<3, 3>(0, 0) * tip_marker + pose.block<3, 1>(0, 3));
+    const Eigen::Matrix3d r = pose.block<3, 3>(0, 0);
+    if (!have_first) {
+      first_rotation = r;
+      have_first = true;
+    }
+    max_angle_deg = std::max(max_angle_deg, Eigen::AngleAxisd(first_rotation.transpose() * r).angle() * 180.0 / M_PI);
+  }
+  ASSERT_GT(tips.size(), 50U);
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (const auto& p : tips) mean += p;
+  mean /= static_cast<double>(tips.size());
+  double worst = 0.0;
+  for (const auto& p : tips) worst = std::max(worst, (p - mean).norm());
+  // The tracker's noise (default 0.12 mm RMS position, 0.05 deg on a 110 mm lever: ~0.1 mm) and the joint-space
+  // interpolation between the pivot's waypoints (~0.1 mm): 1.5 mm is beyond 5 sigma of both.
+  EXPECT_LT(worst, 1.5) << "the tip stays in the divot";
+  EXPECT_GT(max_angle_deg, 18.0) << "while the drill tilts up to the cone's 20 deg from where it began";
+  EXPECT_LT(max_angle_deg, 22.0);
+}
+
 TEST(OperatingRoom, TheTruthFileHoldsTheTruePosesAndTheyMatchTheMeasuredOnesWithinTheNoise) {
   auto scenario = parseScenario(R"({"format": "mrsns-scenario/1", "tracker": {"port": 0,
       "noise": {"position_rms_mm": 0.12, "orientation_rms_deg": 0.0}},

@@ -39,8 +39,9 @@ struct ProgressLog {
 TEST(Steps, ListIsThePaperWorkflowInOrder) {
   const auto steps = listSteps();
   const std::vector<std::string> expected = {
-      "connect-devices", "pivot-calibration", "us-spatial-calibration", "us-temporal-calibration", "robot-calibration",
-      "registration",    "hmd-calibration",   "navigation",             "robot-placement"};
+      "connect-devices", "pivot-calibration", "us-phantom-registration", "us-spatial-calibration",
+      "us-temporal-calibration", "robot-calibration", "registration", "hmd-calibration", "navigation",
+      "robot-placement"};
   ASSERT_EQ(steps.size(), expected.size());
   for (std::size_t i = 0; i < steps.size(); ++i) {
     EXPECT_EQ(steps[i].name, expected[i]);

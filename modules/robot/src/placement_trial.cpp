@@ -257,7 +257,7 @@ PlacementTrialResult runPlacementTrial(const PlacementTrialOptions& o) {
         if (r.guidance.phase == GuidancePhase::Advance && r.guidance.depth_mm >= 0) achieved.push_back(tip_ct);
         const auto state = loop.supervisor().state();
         if (state == SupervisorState::Stopped || state == SupervisorState::Fault) {
-          if (r.stop_sent != StopCommand::None) ++pr.stops;
+          if (r.stop_sent != StopCommand::None && !r.decision.stop_repeated) ++pr.stops;
           // The surgeon waits for the arm to rest, acknowledges, and starts the path again.
           if (arm->state().qd.isZero(0.0) && restarts < 3 && loop.acknowledge()) {
             ++restarts;

@@ -76,6 +76,12 @@ void SafetySupervisor::transition(SupervisorState to, StopReason reason, StopCom
     logger()->info("robot supervisor: cycle {} {} -> {} ({})", cycle, toString(state_), toString(to), r.detail);
   }
   if (to == SupervisorState::Paused) paused_from_ = state_;
+  if (command != StopCommand::None) {
+    pending_stop_ = command;
+    pending_reason_ = reason;
+  } else if (to == SupervisorState::Aligning || to == SupervisorState::Advancing) {
+    pending_stop_ = StopCommand::None;  // motion allowed again: the earlier stop is over
+  }
   state_ = to;
   log_.push_back(std::move(r));
 }
@@ -188,6 +194,17 @@ SupervisorDecision SafetySupervisor::tick(const SupervisorInputs& in) {
   }
   d.state = state_;
   d.motion_allowed = state_ == SupervisorState::Aligning || state_ == SupervisorState::Advancing;
+  // A stop is repeated every cycle until the arm is at rest: a controller that missed or ignored it (a lost
+  // packet, a program that was not listening) still stops within a cycle of the next one.
+  if (d.stop == StopCommand::None && pending_stop_ != StopCommand::None && !d.motion_allowed) {
+    if (in.arm.qd.cwiseAbs().maxCoeff() > limits_.at_rest_joint_speed_rad_s) {
+      d.stop = pending_stop_;
+      d.reason = pending_reason_;
+      d.stop_repeated = true;
+    } else {
+      pending_stop_ = StopCommand::None;
+    }
+  }
   return d;
 }
 

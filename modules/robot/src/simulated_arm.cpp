@@ -31,6 +31,7 @@ SimulatedArm::SimulatedArm(const SimulatedArmOptions& options) : options_(option
   q_ = options.q0;
   servo_target_ = q_;
   stop_deceleration_ = options.stop_deceleration_rad_s2;
+  stops_to_lose_ = std::max(0, options.stops_lost);
 }
 
 ArmState SimulatedArm::state() const {
@@ -97,6 +98,7 @@ bool SimulatedArm::stopJ(double deceleration_rad_s2) {
     ++refused_;
     return false;
   }
+  if (loseStop()) return true;
   // A gentle stopj is honoured, but never slower than the safety system would stop the arm.
   beginStop(std::max(deceleration_rad_s2, options_.stop_deceleration_rad_s2));
   return true;
@@ -108,7 +110,15 @@ bool SimulatedArm::protectiveStop() {
     ++refused_;
     return false;
   }
+  if (loseStop()) return true;
   applyFault(Fault::ProtectiveStop);
+  return true;
+}
+
+bool SimulatedArm::loseStop() {
+  if (stops_to_lose_ <= 0) return false;
+  --stops_to_lose_;
+  ++stops_lost_;
   return true;
 }
 
@@ -147,6 +157,11 @@ void SimulatedArm::reset(const Joints& q) {
 std::uint64_t SimulatedArm::refusedCommands() const {
   std::lock_guard lock(mutex_);
   return refused_;
+}
+
+std::uint64_t SimulatedArm::lostStops() const {
+  std::lock_guard lock(mutex_);
+  return stops_lost_;
 }
 
 void SimulatedArm::injectFault(Fault kind, std::uint64_t at_cycle) {

@@ -177,29 +177,90 @@ struct OperatingRoom::Impl {
   }
 
   // The operator guiding the arm by hand (freedrive): the arm is where the hand puts it, waypoint after waypoint
-  // with a minimum-jerk profile; after the last waypoint the controller has the arm again.
-  void guideArm(double t) {
-    const auto& path = scenario.robot.hand_guided;
-    if (path.empty()) return;
+  // with a minimum-jerk profile; after each waypoint the controller has the arm again until the next one.
+  struct GuidedPlay {
+    std::vector<std::pair<robot::Joints, double>> path;  ///< joints reached, over that long
     robot::Joints from;
-    for (int i = 0; i < 6; ++i) from[i] = scenario.robot.start_joints[static_cast<std::size_t>(i)];
-    double start = 0.0;
-    for (const auto& w : path) {
+    double start_s = 0.0;
+  };
+  std::size_t next_guided = 0;
+  double guided_end_s = 0.0;  ///< when the previous waypoint ended (the next one without at_s starts then)
+  std::optional<GuidedPlay> guiding;
+
+  /// The joints of one waypoint, from where the arm stands: the target, or the drill pivoting about its tip.
+  std::vector<std::pair<robot::Joints, double>> guidedPath(const RobotSpec::GuidedWaypoint& w,
+                                                           const robot::Joints& from) const {
+    std::vector<std::pair<robot::Joints, double>> path;
+    if (w.pivot_deg <= 0.0) {
       robot::Joints to;
       for (int i = 0; i < 6; ++i) to[i] = w.joints[static_cast<std::size_t>(i)];
-      if (t < start + w.duration_s) {
-        ur->arm().reset(from + (to - from) * minimumJerk((t - start) / w.duration_s));
+      path.emplace_back(to, w.duration_s);
+      return path;
+    }
+    const auto& kinematics = ur->arm().kinematics();
+    const Eigen::Isometry3d base_T_flange = kinematics.forward(from);
+    const Eigen::Vector3d tip = base_T_flange * scenario.robot.drill_tip_flange;
+    const Eigen::Vector3d axis = (tip - base_T_flange.translation()).normalized();
+    const Eigen::Vector3d u = axis.unitOrthogonal(), v = axis.cross(u);
+    constexpr int kPerCycle = 48;  // 7.5 deg of the cone per waypoint: the tip stays within ~0.1 mm between them
+    const int n = kPerCycle * w.pivot_cycles;
+    robot::Joints q = from;
+    for (int i = 1; i <= n; ++i) {
+      const double phase = 2.0 * M_PI * i / kPerCycle;
+      const double ramp = std::min({1.0, i / (0.25 * kPerCycle), (n - i) / (0.25 * kPerCycle)});
+      const Eigen::Vector3d tilt_axis = std::cos(phase) * u + std::sin(phase) * v;
+      Eigen::Isometry3d about_tip = Eigen::Isometry3d::Identity();
+      about_tip.linear() = Eigen::AngleAxisd(ramp * w.pivot_deg * M_PI / 180.0, tilt_axis).toRotationMatrix();
+      about_tip.translation() = tip - about_tip.linear() * tip;
+      const auto next = kinematics.inverseNearest(about_tip * base_T_flange, q, &ur->arm().options().limits);
+      if (!next) {
+        throw ComputationError("hand-guided drill pivot: the UR5 cannot tilt the drill " +
+                               std::to_string(w.pivot_deg) + " deg about its tip from where it stands");
+      }
+      q = *next;
+      path.emplace_back(q, w.duration_s / n);
+    }
+    return path;
+  }
+
+  void guideArm(double t) {
+    const auto& waypoints = scenario.robot.hand_guided;
+    if (!guiding && next_guided < waypoints.size()) {
+      const auto& w = waypoints[next_guided];
+      const double at = w.at_s.value_or(guided_end_s);
+      if (t >= at) {
+        GuidedPlay play;
+        if (next_guided == 0 && !w.at_s) {
+          for (int i = 0; i < 6; ++i) play.from[i] = scenario.robot.start_joints[static_cast<std::size_t>(i)];
+        } else {
+          play.from = ur->armState().q;  // the hand takes the arm where it stands
+        }
+        play.start_s = at;
+        try {
+          play.path = guidedPath(w, play.from);
+        } catch (const Error& e) {
+          event(t, std::string("hand guidance skipped: ") + e.what());
+          play.path.clear();
+        }
+        guiding = std::move(play);
+        ++next_guided;
+      }
+    }
+    if (!guiding) return;
+    robot::Joints from = guiding->from;
+    double start = guiding->start_s;
+    for (const auto& [to, duration] : guiding->path) {
+      if (t < start + duration) {
+        ur->arm().reset(from + (to - from) * minimumJerk((t - start) / duration));
         return;
       }
       from = to;
-      start += w.duration_s;
+      start += duration;
     }
-    if (!guided_to_end) {
-      ur->arm().reset(from);  // released at the last waypoint
-      guided_to_end = true;
-    }
+    ur->arm().reset(from);  // released where the waypoint ends
+    guided_end_s = start;
+    guiding.reset();
   }
-  bool guided_to_end = false;
 
   // The virtual operator at the headset: answers the workstation's prompts after the time the task takes, and
   // confirms on the scenario's timeline. Runs at 10 Hz from the tracker thread.
@@ -466,6 +527,7 @@ void OperatingRoom::start() {
         ur.arm.limits.max_q[i] = range->second;
       }
     }
+    ur.arm.stops_lost = s.robot.stops_lost;
     ur.serial_number = serial;
     try {
       impl_->ur = std::make_unique<robot::UrSimulator>(ur);

@@ -226,7 +226,7 @@ MotionSegment readSegment(const Node& n) {
       s.one_axis = n.boolean("one_axis", false);
       break;
     case MotionKind::UpDown:
-      n.allow({"kind", "duration_s", "amplitude_mm", "frequency_hz", "axis"});
+      n.allow({"kind", "duration_s", "amplitude_mm", "frequency_hz", "axis", "frame"});
       s.amplitude_mm = n.number("amplitude_mm", s.amplitude_mm, 0.0, 200.0);
       s.frequency_hz = n.number("frequency_hz", 0.5, 1e-3, 10.0);
       s.axis_tool = n.vector3("axis", s.axis_tool);
@@ -394,7 +394,7 @@ UltrasoundSpec readUltrasound(const Node& n) {
 
 RobotSpec readRobot(const Node& n) {
   n.allow({"enabled", "ports", "base_to_tracker", "marker_to_flange", "drill_tip_mm", "marker_tool", "start_joints_deg",
-           "hand_guided", "joint_limits_deg"});
+           "hand_guided", "joint_limits_deg", "stops_lost"});
   RobotSpec r;
   r.enabled = n.boolean("enabled", true);
   if (n.has("ports")) {
@@ -418,6 +418,7 @@ RobotSpec readRobot(const Node& n) {
       r.start_joints[i] = v[i].get<double>() * kDeg;
     }
   }
+  r.stops_lost = n.integer("stops_lost", 0, 0, 1000);
   if (n.has("joint_limits_deg")) {
     // {"<joint index 0-5>": [min, max]}: only the joints the safety configuration narrows.
     const auto& v = n.json().at("joint_limits_deg");
@@ -434,14 +435,24 @@ RobotSpec readRobot(const Node& n) {
     }
   }
   for (const auto& w : n.array("hand_guided")) {
-    w.allow({"joints_deg", "duration_s"});
+    w.allow({"at_s", "joints_deg", "pivot_drill", "duration_s"});
     RobotSpec::GuidedWaypoint waypoint;
-    if (!w.has("joints_deg")) w.fail("needs 'joints_deg' (6 numbers)");
-    const auto& v = w.json().at("joints_deg");
-    if (!v.is_array() || v.size() != 6) w.failKey("joints_deg", "must be 6 numbers");
-    for (std::size_t i = 0; i < 6; ++i) {
-      if (!v[i].is_number()) w.failKey("joints_deg", "must be 6 numbers");
-      waypoint.joints[i] = v[i].get<double>() * kDeg;
+    if (w.has("at_s")) waypoint.at_s = w.number("at_s", 0.0, 0.0, 86400.0);
+    if (w.has("joints_deg") == w.has("pivot_drill")) {
+      w.fail("needs exactly one of 'joints_deg' (6 numbers) or 'pivot_drill' ({\"amplitude_deg\": 20, \"cycles\": 2})");
+    }
+    if (w.has("pivot_drill")) {
+      const Node pivot = w.child("pivot_drill");
+      pivot.allow({"amplitude_deg", "cycles"});
+      waypoint.pivot_deg = pivot.number("amplitude_deg", 20.0, 1.0, 45.0);
+      waypoint.pivot_cycles = pivot.integer("cycles", 2, 1, 100);
+    } else {
+      const auto& v = w.json().at("joints_deg");
+      if (!v.is_array() || v.size() != 6) w.failKey("joints_deg", "must be 6 numbers");
+      for (std::size_t i = 0; i < 6; ++i) {
+        if (!v[i].is_number()) w.failKey("joints_deg", "must be 6 numbers");
+        waypoint.joints[i] = v[i].get<double>() * kDeg;
+      }
     }
     waypoint.duration_s = w.number("duration_s", waypoint.duration_s, 0.05, 3600.0);
     r.hand_guided.push_back(waypoint);

@@ -7,6 +7,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
+#include <tuple>
 
 #include "mrsns/core/error.h"
 #include "mrsns/core/rigid.h"
@@ -136,25 +137,27 @@ std::string scoreSession(const std::filesystem::path& session_dir, const std::fi
   }
 
   const Json& steps = session.contains("steps") ? session["steps"] : Json::object();
-  if (steps.contains("pivot-calibration") && steps["pivot-calibration"].value("status", "") == "ok" &&
-      fromSimulatedRoom(steps["pivot-calibration"])) {
-    const Json& f = steps["pivot-calibration"]["figures"];
-    const std::string tool = f.value("tool", "Stylus");
+  // The tools' tips: the stylus (pivot-calibration) and the drill on the flange (drill-calibration).
+  for (const auto& [step, key, default_tool] : {std::tuple{"pivot-calibration", "pivot_calibration", "Stylus"},
+                                                std::tuple{"drill-calibration", "drill_calibration", "Flange"}}) {
+    if (!(steps.contains(step) && steps[step].value("status", "") == "ok" && fromSimulatedRoom(steps[step]))) {
+      not_scored.push_back(std::string(step) + " (not run, failed, or not acquired from mrsns-sim)");
+      continue;
+    }
+    const Json& f = steps[step]["figures"];
+    const std::string tool = f.value("tool", default_tool);
     const Json tips = st.value("tool_tips_mm", Json::object());
     const std::string tip_name = tool + "TipTo" + tool;
     if (tips.contains(tool + "ToTracker") && f.contains("transforms") && f["transforms"].contains(tip_name)) {
       const Eigen::Matrix4d marker_T_tip = matrix(f["transforms"][tip_name], "session " + tip_name);
       const Json& t = tips[tool + "ToTracker"];
       const Eigen::Vector3d truth_tip(t[0].get<double>(), t[1].get<double>(), t[2].get<double>());
-      scored["pivot_calibration"] = {{"definition", "distance between the estimated and the true tool tip, in the "
-                                                    "tool's marker frame"},
-                                     {"tool", tool},
-                                     {"tip_error_mm", (marker_T_tip.block<3, 1>(0, 3) - truth_tip).norm()}};
+      scored[key] = {{"definition", "distance between the estimated and the true tool tip, in the tool's marker frame"},
+                     {"tool", tool},
+                     {"tip_error_mm", (marker_T_tip.block<3, 1>(0, 3) - truth_tip).norm()}};
     } else {
-      not_scored.push_back("pivot-calibration (the truth has no tip for " + tool + ")");
+      not_scored.push_back(std::string(step) + " (the truth has no tip for " + tool + ")");
     }
-  } else {
-    not_scored.push_back("pivot-calibration (not run, failed, or not acquired from mrsns-sim)");
   }
 
   if (steps.contains("us-temporal-calibration") && steps["us-temporal-calibration"].value("status", "") == "ok" &&

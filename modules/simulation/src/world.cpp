@@ -356,8 +356,11 @@ Eigen::Isometry3d World::toolPose(std::size_t index, double t) const {
       }
       case MotionKind::UpDown: {
         Eigen::Isometry3d p = from;
-        p.translation() +=
-            from.linear() * seg.axis_tool * seg.amplitude_mm * std::sin(kTwoPi * seg.frequency_hz * local);
+        // The axis in the tool's frame, or in the segment's frame when one is named (up and down over a target).
+        const Eigen::Vector3d axis_tracker = seg.frame == PoseFrame::Tracker
+                                                 ? Eigen::Vector3d(from.linear() * seg.axis_tool)
+                                                 : Eigen::Vector3d(frameInTracker(seg.frame, t).linear() * seg.axis_tool);
+        p.translation() += axis_tracker * seg.amplitude_mm * std::sin(kTwoPi * seg.frequency_hz * local);
         pose = p;
         break;
       }
@@ -527,6 +530,11 @@ std::string World::staticTruthJson() const {
   nlohmann::json tips = nlohmann::json::object();
   for (const auto& tool : scenario_.tools) {
     if (tool.tip_tool) tips[tool.name] = {tool.tip_tool->x(), tool.tip_tool->y(), tool.tip_tool->z()};
+  }
+  if (scenario_.robot.enabled) {
+    // The drill's tip in its marker's frame: what pivoting the drill calibrates.
+    const Eigen::Vector3d tip = scenario_.robot.flange_T_marker.inverse() * scenario_.robot.drill_tip_flange;
+    tips[scenario_.robot.marker_tool] = {tip.x(), tip.y(), tip.z()};
   }
   j["tool_tips_mm"] = tips;
   if (patient_ && patient_->soft_tissue) j["soft_tissue"] = nlohmann::json::parse(patient_->soft_tissue->truthJson());

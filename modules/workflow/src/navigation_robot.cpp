@@ -220,7 +220,7 @@ void NavigationRobot::onCycle(const robot::CycleReport& report) {
 
   std::int64_t latency_cycles = -1;
   double latency_ms = std::numeric_limits<double>::quiet_NaN();
-  if (report.stop_sent != robot::StopCommand::None) {
+  if (report.stop_sent != robot::StopCommand::None && !report.decision.stop_repeated) {
     // When the loss began: a stale pose became stale at its time plus the age limit; otherwise the first
     // batch that showed the loss (or when the loop saw the source go away).
     double onset = cycle_onset_s_;

@@ -57,6 +57,7 @@ Json statsJson(const std::vector<double>& values);
 
 StepResult runConnectDevices(Session& session, const Json& params, const StepContext& context);
 StepResult runPivotCalibration(Session& session, const Json& params, const StepContext& context);
+StepResult runDrillCalibration(Session& session, const Json& params, const StepContext& context);
 StepResult runUsPhantomRegistration(Session& session, const Json& params, const StepContext& context);
 StepResult runUsSpatialCalibration(Session& session, const Json& params, const StepContext& context);
 StepResult runUsTemporalCalibration(Session& session, const Json& params, const StepContext& context);

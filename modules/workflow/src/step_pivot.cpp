@@ -51,12 +51,17 @@ std::string swingText(const registration::PivotCoverage& c) {
 
 }  // namespace
 
-StepResult runPivotCalibration(Session& session, const Json& params, const StepContext& context) {
-  const Params p("pivot-calibration", params,
+namespace {
+
+/// pivot-calibration (the stylus) and drill-calibration (the drill on the robot's flange, pivoted by hand in
+/// freedrive): the same acquisition and calibration, each with its own place in the session.
+StepResult runPivotStep(Session& session, const Json& params, const StepContext& context, const std::string& step,
+                        const std::string& default_tool) {
+  const Params p(step, params,
                  {"source", "host", "port", "recording", "tool", "reference", "duration_s", "connect_timeout_s",
                   "min_poses", "target_swing_deg", "min_rotation_deg", "robust", "inlier_threshold_mm"});
   PivotStepOptions o;
-  o.tool = p.text("tool", o.tool);
+  o.tool = p.text("tool", default_tool);
   o.reference = p.text("reference", o.reference);
   o.min_poses = p.integer("min_poses", o.min_poses);
   o.target_swing_deg = p.number("target_swing_deg", o.target_swing_deg);
@@ -64,12 +69,12 @@ StepResult runPivotCalibration(Session& session, const Json& params, const StepC
   o.robust = p.boolean("robust", o.robust);
   o.inlier_threshold_mm = p.number("inlier_threshold_mm", o.inlier_threshold_mm);
   if (o.tool.empty() || o.reference.empty() || o.tool == o.reference) {
-    throw InvalidArgumentError("pivot-calibration: tool and reference must be two tool names (Stylus, Reference)");
+    throw InvalidArgumentError(step + ": tool and reference must be two tool names (Stylus, Reference)");
   }
   if (o.min_poses < 10 || !(o.target_swing_deg > 0.0 && o.target_swing_deg <= 120.0) ||
       !(o.min_rotation_deg > 0.0 && o.min_rotation_deg <= o.target_swing_deg) || !(o.inlier_threshold_mm > 0.0)) {
     throw InvalidArgumentError(
-        "pivot-calibration: min_poses must be >= 10, target_swing_deg in (0, 120], min_rotation_deg in (0, "
+        step + ": min_poses must be >= 10, target_swing_deg in (0, 120], min_rotation_deg in (0, "
         "target_swing_deg], inlier_threshold_mm > 0");
   }
   const std::string transform = o.transform();
@@ -80,15 +85,15 @@ StepResult runPivotCalibration(Session& session, const Json& params, const StepC
   std::string recording;
   Json recorded;
   if (source == "plus") {
-    if (p.has("recording")) throw InvalidArgumentError("pivot-calibration: recording is for source=file");
+    if (p.has("recording")) throw InvalidArgumentError(step + ": recording is for source=file");
     LiveTrackingOptions live;
     sessionPlusServer(session, p, live.host, live.port);
     live.max_duration_s = p.number("duration_s", live.max_duration_s);
     live.connect_timeout_s = p.number("connect_timeout_s", live.connect_timeout_s);
     if (!(live.max_duration_s > 0.0 && live.max_duration_s <= 600.0) || !(live.connect_timeout_s > 0.0)) {
-      throw InvalidArgumentError("pivot-calibration: duration_s must be in (0, 600] s, connect_timeout_s > 0");
+      throw InvalidArgumentError(step + ": duration_s must be in (0, 600] s, connect_timeout_s > 0");
     }
-    recording = freeSessionName(session, "pivot-calibration", o.tool + "Pivot", ".mhd");
+    recording = freeSessionName(session, step, o.tool + "Pivot", ".mhd");
     live.recording = session.resolve(recording);
     context.report(0.05, "connecting to the tracker at " + live.host + ":" + std::to_string(live.port) +
                              ": put the " + o.tool + "'s tip in the divot");
@@ -118,7 +123,7 @@ StepResult runPivotCalibration(Session& session, const Json& params, const StepC
     result.outputs.push_back(recording);
   } else if (source == "file") {
     if (!p.has("recording")) {
-      throw InvalidArgumentError("pivot-calibration: source=file needs recording (a PLUS sequence with " + transform +
+      throw InvalidArgumentError(step + ": source=file needs recording (a PLUS sequence with " + transform +
                                  " or the transforms it is computed from)");
     }
     recording = p.text("recording", "");
@@ -137,7 +142,7 @@ StepResult runPivotCalibration(Session& session, const Json& params, const StepC
     }
     recorded = {{"file", recording}, {"frames", frames.size()}};
   } else {
-    throw InvalidArgumentError("pivot-calibration: source must be plus (live) or file, not '" + source + "'");
+    throw InvalidArgumentError(step + ": source must be plus (live) or file, not '" + source + "'");
   }
   checkCancel(context);
 
@@ -179,8 +184,8 @@ StepResult runPivotCalibration(Session& session, const Json& params, const StepC
   Eigen::Isometry3d marker_T_tip = Eigen::Isometry3d::Identity();
   marker_T_tip.translation() = r.tip_marker;
   const std::string tip_name = o.tool + "TipTo" + o.tool;
-  const std::string output = "pivot-calibration/" + tip_name + ".tfm";
-  std::filesystem::create_directories(session.resolve("pivot-calibration"));
+  const std::string output = step + "/" + tip_name + ".tfm";
+  std::filesystem::create_directories(session.resolve(step));
   // Slicer's convention (io/transform_io.h): the file holds the inverse of the node's ToParent, as
   // mrsns-cli calibrate-pivot --output writes it.
   io::writeTransformFile(marker_T_tip.inverse().matrix(), session.resolve(output));
@@ -207,6 +212,16 @@ StepResult runPivotCalibration(Session& session, const Json& params, const StepC
   }
   result.summary = s.str();
   return result;
+}
+
+}  // namespace
+
+StepResult runPivotCalibration(Session& session, const Json& params, const StepContext& context) {
+  return runPivotStep(session, params, context, "pivot-calibration", "Stylus");
+}
+
+StepResult runDrillCalibration(Session& session, const Json& params, const StepContext& context) {
+  return runPivotStep(session, params, context, "drill-calibration", "Flange");
 }
 
 }  // namespace mrsns::workflow::detail

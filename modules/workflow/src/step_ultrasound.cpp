@@ -1,15 +1,20 @@
 // Ultrasound spatial (N-wire) and temporal (tracker lag) calibration steps,
 // on the PLUS fCal recording of the shared data set unless told otherwise.
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
 #include <optional>
 #include <sstream>
 
 #include "live_tracking_recording.h"
 #include "live_us_recording.h"
 #include "mrsns/core/data_dir.h"
+#include "mrsns/core/format.h"
 #include "mrsns/io/device_set.h"
 #include "mrsns/io/sequence_file.h"
 #include "mrsns/io/transform_io.h"
 #include "mrsns/ultrasound/probe_calibration.h"
+#include "mrsns/ultrasound/spatial_calibration.h"
 #include "step_internal.h"
 
 namespace mrsns::workflow::detail {
@@ -107,6 +112,28 @@ std::string usePhantomRegistration(const Session& session, const std::string& wh
   return "us-phantom-registration";
 }
 
+/// How far the middle wires' points spread across the image (mm): the square root of the smaller eigenvalue
+/// of their 2D covariance, as the calibration's motion check measures it in the probe frame.
+class MiddleWireSpread {
+ public:
+  void add(const Eigen::Vector2d& p_mm) {
+    ++n_;
+    sum_ += p_mm;
+    sum2_ += p_mm * p_mm.transpose();
+  }
+  [[nodiscard]] double acrossMm() const {
+    if (n_ < 2) return 0.0;
+    const Eigen::Vector2d mean = sum_ / n_;
+    const Eigen::Matrix2d cov = sum2_ / n_ - mean * mean.transpose();
+    return std::sqrt(std::max(Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(cov).eigenvalues()[0], 0.0));
+  }
+
+ private:
+  double n_ = 0.0;
+  Eigen::Vector2d sum_ = Eigen::Vector2d::Zero();
+  Eigen::Matrix2d sum2_ = Eigen::Matrix2d::Zero();
+};
+
 /// A live sweep's frames split as fCal acquires them, calibration and validation apart: every third frame
 /// validates, so both cover the whole sweep.
 void splitSweep(const TrackedSequence& sweep, TrackedSequence& calibration, TrackedSequence& validation) {
@@ -131,8 +158,8 @@ StepResult runUsSpatialCalibration(Session& session, const Json& params, const S
   Inputs in;
   context.report(0.02, "reading the device set");
   in.config = io::readDeviceSet(dataPath(p, "config", kConfig));
-  const std::string phantom_source =
-      usePhantomRegistration(session, p.text("phantom_to_reference", source == "plus" ? "session" : "config"), in.config);
+  const std::string phantom_choice = p.text("phantom_to_reference", source == "plus" ? "session" : "config");
+  const std::string phantom_source = usePhantomRegistration(session, phantom_choice, in.config);
   // source=plus: the calibration sweep is recorded live from a PlusServer (or mrsns-sim) into the session first,
   // as fCal does: until enough frames show all the wires (fCal's 140 calibration and 70 validation images);
   // the step then calibrates on that recording, which the offline verbs can recompute.
@@ -140,12 +167,9 @@ StepResult runUsSpatialCalibration(Session& session, const Json& params, const S
   std::string live_sweep;
   std::size_t segmented_live = 0, seen_live = 0;
   if (source == "plus") {
-    for (const char* key : {"calibration", "validation"}) {
-      if (p.has(key)) {
-        throw InvalidArgumentError(std::string("us-spatial-calibration: ") + key +
-                                   " is a recording (source=file); source=plus records the sweep and validates on "
-                                   "every third frame of it");
-      }
+    if (p.has("calibration")) {
+      throw InvalidArgumentError(
+          "us-spatial-calibration: calibration is a recording (source=file); source=plus records the sweep");
     }
     LiveUsRecordingOptions o;
     sessionPlusServer(session, p, o.host, o.port);
@@ -163,6 +187,11 @@ StepResult runUsSpatialCalibration(Session& session, const Json& params, const S
     const auto segmentation = in.config.segmentation ? ultrasound::segmentationOptionsFrom(*in.config.segmentation)
                                                      : ultrasound::NWireSegmentationOptions{};
     // Each frame segmented as it arrives: the operator sees how many frames show every wire (fCal's count).
+    // The calibration needs the middle wires' points spread across the image (spatial_calibration's check,
+    // 2 mm): a sweep that stayed in one place is not done when it has its frames. Pixels to mm by the device
+    // set's approximate spacing.
+    const double spread_needed_mm = ultrasound::SpatialCalibrationOptions{}.min_point_spread_mm;
+    MiddleWireSpread spread;
     o.on_frame = [&](const tracking::TrackedImage& image, std::string& message) {
       ++seen_live;
       const bool gray = image.format.scalar == PixelType::UInt8 && image.format.components == 1 &&
@@ -170,33 +199,51 @@ StepResult runUsSpatialCalibration(Session& session, const Json& params, const S
       if (gray) {
         const ultrasound::GrayImageView view{static_cast<int>(image.geometry.size[0]),
                                              static_cast<int>(image.geometry.size[1]), image.pixels};
-        if (ultrasound::segmentNWires(view, phantom, segmentation).ok()) ++segmented_live;
+        const auto seg = ultrasound::segmentNWires(view, phantom, segmentation);
+        if (seg.ok()) {
+          ++segmented_live;
+          for (std::size_t k = 1; k < seg.wire_points_px.size(); k += 3) {
+            spread.add(seg.wire_points_px[k] * segmentation.approximate_spacing_mm);
+          }
+        }
       }
-      message = gray ? "sweep the probe over the N-wires: all wires found in " + std::to_string(segmented_live) +
-                           " of " + std::to_string(wanted) + " frames needed (" + std::to_string(seen_live) +
-                           " received)"
+      const double across_mm = spread.acrossMm();
+      message = gray ? "sweep the probe over the N-wires, tilting it: all wires found in " +
+                           std::to_string(segmented_live) + " of " + std::to_string(wanted) + " frames needed (" +
+                           std::to_string(seen_live) + " received), wire points " + formatFixed(across_mm, 1) +
+                           " of " + formatFixed(spread_needed_mm, 1) + " mm across the image"
                      : "the PlusServer sends no 8-bit grey B-mode frames: the N-wires cannot be segmented";
-      return static_cast<int>(segmented_live) >= wanted;
+      return static_cast<int>(segmented_live) >= wanted && across_mm >= spread_needed_mm;
     };
     context.report(0.05, "recording the calibration sweep from " + o.host + ":" + std::to_string(o.port));
     live = recordLiveUltrasound(o, context);
     live_sweep = freeSessionName(session, "us-spatial-calibration", "calibration_sweep", ".igs.mha");
     io::writeSequence(session.resolve(live_sweep), live->sequence);
-    if (!live->complete) {
+    // The stream ended (a replayed recording) or the time ran out short of the target: what was segmented is
+    // used when it is enough for a calibration, and said.
+    const int least = std::min(wanted, 30);
+    if (!live->complete && static_cast<int>(segmented_live) < least) {
       StepResult failed;
       failed.ok = false;
       failed.outputs = {live_sweep};
       failed.figures = {{"recorded", {{"file", live_sweep}, {"frames", live->sequence.frames.size()}}},
                         {"segmented_frames", segmented_live},
-                        {"segmented_frames_needed", wanted},
+                        {"segmented_frames_needed", least},
                         {"simulated", fromSimulatedRoom(live->device_identity)}};
       failed.summary = "only " + std::to_string(segmented_live) + " of " + std::to_string(seen_live) +
-                       " frames showed all the N-wires, " + std::to_string(wanted) +
+                       " frames showed all the N-wires, " + std::to_string(least) +
                        " needed: keep the probe in the water bath over the wires and sweep slowly (the recording "
                        "is kept: " + live_sweep + ")";
       return failed;
     }
-    splitSweep(live->sequence, in.calibration, in.validation);
+    if (p.has("validation")) {
+      // A separate validation recording (fCal acquires one apart): the whole sweep calibrates.
+      in.calibration = live->sequence;
+      context.report(0.25, "reading the validation recording");
+      in.validation = io::readSequence(dataPath(p, "validation", kValidation));
+    } else {
+      splitSweep(live->sequence, in.calibration, in.validation);
+    }
   } else {
     for (const char* key : {"host", "port", "duration_s", "idle_stop_s", "connect_timeout_s", "segmented_frames"}) {
       if (p.has(key)) throw InvalidArgumentError(std::string("us-spatial-calibration: ") + key + " is for source=plus");
@@ -300,12 +347,20 @@ StepResult runUsSpatialCalibration(Session& session, const Json& params, const S
                                   {"device_identity", live->device_identity}};
     result.figures["offline_command"] = "mrsns-cli session run " + session.folder().string() +
                                         " us-spatial-calibration --param calibration=" +
-                                        session.resolve(live_sweep).string() + " --param phantom_to_reference=session";
+                                        session.resolve(live_sweep).string() +
+                                        " --param phantom_to_reference=" + phantom_choice +
+                                        (p.has("config") ? " --param config=" + p.text("config", "") : std::string()) +
+                                        (p.has("validation") ? " --param validation=" + p.text("validation", "")
+                                                             : std::string());
     result.figures["simulated"] = simulated;
   }
   std::ostringstream s;
   s.precision(3);
-  if (live) s << "recorded " << live->sequence.frames.size() << " frames live; ";
+  if (live) {
+    s << "recorded " << live->sequence.frames.size() << " frames live (" << segmented_live
+      << " with every wire" << (live->complete ? "" : ", fewer than the target: the stream ended or the time ran out")
+      << "); ";
+  }
   s << "ImageToProbe from " << r.frames_used << " frames, tracker lag " << run.tracker_lag.lag_s * 1e3 << " ms"
     << (lag_source == "estimated"                 ? " (estimated)"
         : lag_source == "us-temporal-calibration" ? " (from the temporal calibration)"

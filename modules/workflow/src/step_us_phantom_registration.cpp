@@ -82,6 +82,7 @@ StepResult runUsPhantomRegistration(Session& session, const Json& params, const 
   const Params p("us-phantom-registration", params,
                  {"source", "host", "port", "recording", "config", "tool", "reference", "duration_s",
                   "connect_timeout_s", "dwell_s", "dwell_radius_mm", "match_tolerance_mm", "min_landmarks"});
+  checkCancel(context);  // cancelled before it started: nothing to check or acquire
   const std::string tool = p.text("tool", "Stylus"), reference = p.text("reference", "Reference");
   if (tool.empty() || reference.empty() || tool == reference) {
     throw InvalidArgumentError("us-phantom-registration: tool and reference must be two tool names (Stylus, Reference)");

@@ -17,6 +17,9 @@ std::vector<StepInfo> listSteps() {
        "Tracker (simulated, PlusServer over OpenIGTLink, or playback of a PLUS recording): tools seen, rate, jitter"},
       {"pivot-calibration", "Tool pivot calibration", "preparation",
        "Tip of the stylus (or drill) from pivoting it in a divot, recorded live from the PlusServer"},
+      {"drill-calibration", "Drill pivot calibration", "preparation",
+       "Tip of the drill on the robot's flange (marker FlangeToTracker) from pivoting it by hand in a divot "
+       "(freedrive), recorded live from the PlusServer"},
       {"us-phantom-registration", "Ultrasound phantom registration", "preparation",
        "PhantomToReference from the N-wire phantom's landmarks touched with the calibrated stylus (fCal's phantom "
        "registration), recorded live from the PlusServer"},
@@ -44,6 +47,7 @@ StepResult runStep(Session& session, const std::string& step, const nlohmann::js
   static const std::pair<const char*, Runner> kRunners[] = {
       {"connect-devices", detail::runConnectDevices},
       {"pivot-calibration", detail::runPivotCalibration},
+      {"drill-calibration", detail::runDrillCalibration},
       {"us-phantom-registration", detail::runUsPhantomRegistration},
       {"us-spatial-calibration", detail::runUsSpatialCalibration},
       {"us-temporal-calibration", detail::runUsTemporalCalibration},

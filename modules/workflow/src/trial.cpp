@@ -113,6 +113,11 @@ TrialResult runPhantomTrial(const TrialOptions& options) {
     nlohmann::json phantom = at_room;
     phantom["duration_s"] = 90.0;
     plan.push_back({"us-phantom-registration", phantom});
+    // PLUS's order: the tracker's lag behind the video first (the probe moved up and down over the bath's flat
+    // bottom), so the sweep over the wires is calibrated with it.
+    nlohmann::json temporal = at_room;
+    temporal["duration_s"] = 15.0;
+    plan.push_back({"us-temporal-calibration", temporal});
     nlohmann::json sweep = at_room;
     sweep["duration_s"] = 90.0;
     plan.push_back({"us-spatial-calibration", sweep});
@@ -124,7 +129,11 @@ TrialResult runPhantomTrial(const TrialOptions& options) {
     robot["ur_script_port"] = ports.value("realtime", 30003);
     robot["ur_dashboard_port"] = ports.value("dashboard", 29999);
     robot["seed"] = seed;
-    plan.push_back({"robot-calibration", robot, false, true});
+    plan.push_back({"robot-calibration", robot});
+    // Then the drill's tip: the scenario's operator pivots the drill by hand (freedrive) from 205 s.
+    nlohmann::json drill = at_room;
+    drill["duration_s"] = 90.0;
+    plan.push_back({"drill-calibration", drill, false, true});
   }
   // The real recording (PLUS's fCal data), compared with PLUS's own result.
   plan.push_back({"us-spatial-calibration", nlohmann::json::object(), true, false, room != nullptr});

@@ -150,6 +150,14 @@ std::string renderTrialHtml(const nlohmann::json& report) {
                      number(at(steps, "us-spatial-calibration" + fig + "validation/reprojection_3d_mean_mm")) +
                      " mm)"
                : "not acquired in a room"},
+      {"US temporal calibration in the simulated room, lag error (ms)",
+       live_us ? number(at(report, "simulated_room/score/scored/us_temporal_calibration/error_ms")) : "&ndash;",
+       "&ndash;",
+       live_us ? "probe moved up and down over the bath's flat bottom; estimated " +
+                     number(at(report, "simulated_room/score/scored/us_temporal_calibration/estimated_ms")) +
+                     " ms against the room's true " +
+                     number(at(report, "simulated_room/score/scored/us_temporal_calibration/true_ms")) + " ms"
+               : "not acquired in a room"},
       {"Registration, landmark FRE (mm)", number(at(steps, "registration" + fig + "landmarks/fre_rms_mm")), "&ndash;",
        live_registration ? "fiducial screws touched with the tracked stylus in the simulated room (noise model below)"
                          : "8 fiducial screws, 0.5 mm FLE (in-process simulated patient)"},

@@ -63,6 +63,9 @@ struct SupervisorLimits {
   std::uint64_t max_missed_cycles = 2;
   std::uint64_t max_stalled_cycles = 3;  ///< ticks without the robot's cycle counter advancing
   double stop_deceleration_rad_s2 = 15.0;
+  /// The arm is at rest when no joint moves faster than this (a real UR reports ~1e-4 rad/s standing still):
+  /// until then the stop that was sent goes out again every cycle, in case the controller missed or ignored it.
+  double at_rest_joint_speed_rad_s = 0.005;
 };
 
 /// What one control cycle observed. The drill tip and axis are measured by the tracker and expressed in
@@ -96,6 +99,8 @@ struct SupervisorDecision {
   StopCommand stop = StopCommand::None;
   bool motion_allowed = false;
   StopReason reason = StopReason::None;
+  /// The stop is the one sent earlier, sent again because the arm still moves.
+  bool stop_repeated = false;
   /// Figures of this cycle (NaN when not computed).
   double axis_distance_mm = 0, axis_angle_rad = 0, soft_tissue_distance_mm = 0;
 };
@@ -144,6 +149,9 @@ class SafetySupervisor {
   void transition(SupervisorState to, StopReason reason, StopCommand command, std::uint64_t cycle, double time_s,
                   std::string detail);
   [[nodiscard]] bool active() const;
+  /// The stop of the last transition that commanded one, until the arm is at rest (None after).
+  StopCommand pending_stop_ = StopCommand::None;
+  StopReason pending_reason_ = StopReason::None;
 
   SupervisorLimits limits_;
   PlannedAxis axis_;

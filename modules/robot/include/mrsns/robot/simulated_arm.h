@@ -43,6 +43,10 @@ struct SimulatedArmOptions {
   double max_tcp_speed_mm_s = 1000.0;
   /// speedL near a singularity: damped least squares with this damping (mm-scaled Jacobian).
   double speedl_damping = 1e-3;
+  /// The first this many stop commands (stopJ, protectiveStop) are lost on the way, as a dropped packet or a
+  /// script interface that was not listening would lose them: taken without error, not acted on. A fault to
+  /// test that the workstation repeats its stop until the arm is at rest.
+  int stops_lost = 0;
 };
 
 class SimulatedArm : public RobotArm {
@@ -76,6 +80,8 @@ class SimulatedArm : public RobotArm {
   [[nodiscard]] const SimulatedArmOptions& options() const { return options_; }
   /// Commands refused since construction (a safety state, disconnection, bad values).
   [[nodiscard]] std::uint64_t refusedCommands() const;
+  /// Stop commands lost on the way (options().stops_lost).
+  [[nodiscard]] std::uint64_t lostStops() const;
 
  private:
   enum class Motion { Hold, Servo, Speed, Stopping };
@@ -85,6 +91,8 @@ class SimulatedArm : public RobotArm {
   };
   void applyFault(Fault kind);
   void beginStop(double deceleration);
+  /// True when this stop command is one of the lost ones (called under the mutex).
+  bool loseStop();
   [[nodiscard]] bool acceptsMotion() const;
   [[nodiscard]] Joints speedLJointVelocity() const;
 
@@ -106,6 +114,8 @@ class SimulatedArm : public RobotArm {
   bool powered_ = true;
   std::vector<PendingFault> faults_;
   std::uint64_t refused_ = 0;
+  int stops_to_lose_ = 0;
+  std::uint64_t stops_lost_ = 0;
 };
 
 }  // namespace mrsns::robot

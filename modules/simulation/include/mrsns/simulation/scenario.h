@@ -213,11 +213,21 @@ struct RobotSpec {
   /// The controller's safety configuration narrowing a joint's range (rad): a servo target beyond it is refused
   /// and the arm stays where it was (a station the arm cannot reach). Unset: the UR5's own +/-360 deg.
   std::array<std::optional<std::pair<double, double>>, 6> joint_limits{};
-  /// The operator guiding the arm by hand (freedrive), one waypoint after the other from the start joints:
-  /// joints (rad) reached with a minimum-jerk profile over each duration. While guided, the arm follows the hand,
-  /// not the controller's commands.
+  /// The controller loses this many of the first stop commands it is sent (a fault: the workstation must
+  /// repeat its stop until the arm is at rest).
+  int stops_lost = 0;
+  /// The operator guiding the arm by hand (freedrive). Each waypoint starts at `at_s` (the hand takes the arm
+  /// from wherever it stands then) or, without it, where the previous one ended (the first at 0 from the start
+  /// joints). A waypoint is either joints (rad) reached with a minimum-jerk profile over its duration, or a
+  /// pivot of the drill about its tip held in a divot: the drill's axis circles a cone of `pivot_deg` half-angle
+  /// `pivot_cycles` times over the duration (ramped in over the first quarter turn and out over the last),
+  /// back to where it began. While guided, the arm follows the hand, not the controller's commands; after the
+  /// waypoint the controller has it again.
   struct GuidedWaypoint {
+    std::optional<double> at_s;
     std::array<double, 6> joints{};
+    double pivot_deg = 0.0;  ///< > 0: a drill pivot (joints unused)
+    int pivot_cycles = 2;
     double duration_s = 1.0;
   };
   std::vector<GuidedWaypoint> hand_guided;
