@@ -119,7 +119,9 @@ CycleReport ControlLoop::tick(const TrackingSnapshot& tracking, double cycle_tim
     report.stop_accepted = report.decision.stop == StopCommand::ProtectiveStop
                                ? arm_->protectiveStop()
                                : arm_->stopJ(options_.limits.stop_deceleration_rad_s2);
-    guidance_.reset();
+    // A repeated stop changes nothing the first one did not: a paused placement (whose stop is repeated until the
+    // arm rests) keeps its guidance and resumes where it was.
+    if (!report.decision.stop_repeated) guidance_.reset();
     return report;
   }
   if (!report.decision.motion_allowed || !have_estimate_) return report;

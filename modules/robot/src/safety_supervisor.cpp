@@ -79,8 +79,8 @@ void SafetySupervisor::transition(SupervisorState to, StopReason reason, StopCom
   if (command != StopCommand::None) {
     pending_stop_ = command;
     pending_reason_ = reason;
-  } else if (to == SupervisorState::Aligning || to == SupervisorState::Advancing) {
-    pending_stop_ = StopCommand::None;  // motion allowed again: the earlier stop is over
+  } else if (to == SupervisorState::Aligning || to == SupervisorState::Advancing || to == SupervisorState::Ready) {
+    pending_stop_ = StopCommand::None;  // acknowledged or moving again: the earlier stop is over
   }
   state_ = to;
   log_.push_back(std::move(r));

@@ -184,6 +184,8 @@ struct OperatingRoom::Impl {
     double start_s = 0.0;
   };
   std::size_t next_guided = 0;
+  std::uint64_t script_commands_seen = 0;
+  double last_command_s = -1e9;
   double guided_end_s = 0.0;  ///< when the previous waypoint ended (the next one without at_s starts then)
   std::optional<GuidedPlay> guiding;
 
@@ -228,14 +230,22 @@ struct OperatingRoom::Impl {
     if (!guiding && next_guided < waypoints.size()) {
       const auto& w = waypoints[next_guided];
       const double at = w.at_s.value_or(guided_end_s);
-      if (t >= at) {
+      // The operator does not take an arm the controller is driving: a UR refuses freedrive while its program
+      // moves the arm. The hand waits until no command came for a second and the arm stands still.
+      const auto commands = ur->stats().script_commands;
+      if (commands != script_commands_seen) {
+        script_commands_seen = commands;
+        last_command_s = t;
+      }
+      const bool driven = t - last_command_s < 1.0 || ur->armState().qd.cwiseAbs().maxCoeff() > 1e-6;
+      if (t >= at && !driven) {
         GuidedPlay play;
         if (next_guided == 0 && !w.at_s) {
           for (int i = 0; i < 6; ++i) play.from[i] = scenario.robot.start_joints[static_cast<std::size_t>(i)];
         } else {
           play.from = ur->armState().q;  // the hand takes the arm where it stands
         }
-        play.start_s = at;
+        play.start_s = t;  // when the hand took it (at_s, or later if the controller was still driving it)
         try {
           play.path = guidedPath(w, play.from);
         } catch (const Error& e) {

@@ -112,16 +112,16 @@ std::string scoreSession(const std::filesystem::path& session_dir, const std::fi
   }
 
   if (const Json* est = recordedTransform(session, "us-phantom-registration", "PhantomToReference")) {
-    if (st.contains("PhantomToReference")) {
+    if (!st.contains("PhantomToReference") || !st.contains("phantom_wires_mm") || st["phantom_wires_mm"].empty()) {
+      not_scored.push_back("us-phantom-registration (the truth has no phantom or no wire ends to judge it at)");
+    } else {
       // Judged where it matters to the calibration: at the phantom's wires (the corners of their box).
       const Eigen::Matrix4d e = matrix(*est, "session PhantomToReference");
       const Eigen::Matrix4d t = matrix(st["PhantomToReference"], "truth PhantomToReference");
       std::vector<double> errors;
-      if (st.contains("phantom_wires_mm")) {
-        for (const auto& end : st["phantom_wires_mm"]) {
-          const Eigen::Vector4d p(end[0].get<double>(), end[1].get<double>(), end[2].get<double>(), 1.0);
-          errors.push_back(((e - t) * p).head<3>().norm());
-        }
+      for (const auto& end : st["phantom_wires_mm"]) {
+        const Eigen::Vector4d p(end[0].get<double>(), end[1].get<double>(), end[2].get<double>(), 1.0);
+        errors.push_back(((e - t) * p).head<3>().norm());
       }
       const Eigen::Matrix3d dr = e.block<3, 3>(0, 0).transpose() * t.block<3, 3>(0, 0);
       const double angle_deg = std::acos(std::clamp((dr.trace() - 1.0) / 2.0, -1.0, 1.0)) * 180.0 / M_PI;

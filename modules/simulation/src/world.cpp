@@ -232,10 +232,19 @@ void World::expandRegistrationMotions() {
       const Eigen::Isometry3d& tracker_T_frame = on_phantom ? *tracker_T_phantom : tracker_T_ct;
       PointerGeometry pointer;
       pointer.tip_tool = tool.tip_tool.value_or(Eigen::Vector3d::Zero());
-      // The pointer keeps the orientation it starts with in the room (held as it was picked up).
-      const Eigen::Matrix3d tracker_R_tool = tool.start_frame == PoseFrame::Tracker
-                                                 ? Eigen::Matrix3d(tool.start.linear())
-                                                 : Eigen::Matrix3d(tracker_T_ct.linear() * tool.start.linear());
+      // The pointer keeps the orientation it starts with in the room (held as it was picked up), its start pose
+      // given in its start frame as the room stands at the start.
+      Eigen::Isometry3d tracker_T_start = Eigen::Isometry3d::Identity();
+      switch (tool.start_frame) {
+        case PoseFrame::Tracker: break;
+        case PoseFrame::CT: tracker_T_start = tracker_T_ct; break;
+        case PoseFrame::Phantom: tracker_T_start = tracker_T_phantom.value_or(Eigen::Isometry3d::Identity()); break;
+        case PoseFrame::Reference:
+          if (scenario_.patient) tracker_T_start = startOf(scenario_.patient->reference_tool, Eigen::Isometry3d::Identity());
+          break;
+        case PoseFrame::RobotBase: tracker_T_start = scenario_.robot.tracker_T_base; break;
+      }
+      const Eigen::Matrix3d tracker_R_tool = tracker_T_start.linear() * tool.start.linear();
       pointer.frame_R_tool = tracker_T_frame.linear().transpose() * tracker_R_tool;
       const Patient* patient = patient_.get();
       const auto more =

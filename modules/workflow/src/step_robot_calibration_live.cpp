@@ -126,6 +126,10 @@ StepResult runLiveRobotCalibration(Session& session, const Json& params, const S
         "(0, 45], spread_mm in [0, 200], speed_deg_s in (0, 60] (a calibration moves gently), settle_s >= 0, "
         "sample_s >= 0.3");
   }
+  const double unlock_timeout_s = p.number("unlock_timeout_s", 300.0);
+  if (!(unlock_timeout_s > 0.0 && unlock_timeout_s <= 1800.0)) {
+    throw InvalidArgumentError("robot-calibration: unlock_timeout_s must be in (0, 1800] s");
+  }
   const std::string marker = p.text("marker", "FlangeToTracker");
   LiveTrackingOptions live;
   sessionPlusServer(session, p, live.host, live.port);
@@ -182,7 +186,8 @@ StepResult runLiveRobotCalibration(Session& session, const Json& params, const S
                           " deg, " + formatFixed(plan.spread_mm, 0) + " mm): keep its workspace clear");
   const std::string recording = freeSessionName(session, "robot-calibration", "RobotCalibration", ".mhd");
   live.recording = session.resolve(recording);
-  live.max_duration_s = 600.0;
+  // The stations take well under 10 minutes; a protective stop adds the operator's time to unlock it.
+  live.max_duration_s = 600.0 + 2.0 * unlock_timeout_s;
   std::vector<StationWindow> windows(stations.q.size() + 1);  // the last: back at the start pose
   std::atomic<int> holding{-1};
   std::atomic<bool> done{false};
@@ -194,7 +199,6 @@ StepResult runLiveRobotCalibration(Session& session, const Json& params, const S
   // skipped and the step waits for the operator to inspect the arm and unlock it (pendant or dashboard; the
   // workstation never unlocks a protective stop itself), then goes on from where the arm stands.
   std::atomic<int> stopped_at{-1};
-  const double unlock_timeout_s = p.number("unlock_timeout_s", 300.0);
   // The arm's own thread: move, settle, hold still while the tracker samples, next station; then home.
   std::thread mover([&] {
     try {
@@ -211,6 +215,7 @@ StepResult runLiveRobotCalibration(Session& session, const Json& params, const S
           const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
           if (t > total) break;
           if (!arm->servoJ(from + (to - from) * minimumJerk(t / travel))) {
+            if (!arm->state().connected) throw NetworkError("the connection to the UR controller was lost");
             const auto safety = arm->state().safety;
             if (safety != robot::SafetyMode::ProtectiveStop) {
               throw ComputationError(std::string("the UR controller refused the motion (safety mode ") +
@@ -231,10 +236,12 @@ StepResult runLiveRobotCalibration(Session& session, const Json& params, const S
           if (!home) reached = static_cast<int>(k) + 1;
           const auto waited_from = std::chrono::steady_clock::now();
           while (!abort) {
-            const auto safety = arm->state().safety;
-            if (safety == robot::SafetyMode::Normal || safety == robot::SafetyMode::Reduced) break;
+            const auto state = arm->state();
+            if (!state.connected) throw NetworkError("the connection to the UR controller was lost");
+            if (state.safety == robot::SafetyMode::Normal || state.safety == robot::SafetyMode::Reduced) break;
             if (std::chrono::steady_clock::now() - waited_from > std::chrono::duration<double>(unlock_timeout_s)) {
-              throw ComputationError("protective stop on the way to station " + std::to_string(k + 1) +
+              throw ComputationError("protective stop on the way to " +
+                                     (home ? std::string("the start pose") : "station " + std::to_string(k + 1)) +
                                      " not unlocked within " + formatFixed(unlock_timeout_s, 0) + " s");
             }
             std::this_thread::sleep_for(std::chrono::milliseconds(50));
@@ -271,10 +278,11 @@ StepResult runLiveRobotCalibration(Session& session, const Json& params, const S
     }
     const auto n = static_cast<int>(stations.q.size());
     if (const int stop = stopped_at.load(); stop >= 0) {
-      message = "protective stop on the way to " +
-                (stop < n ? "station " + std::to_string(stop + 1) : std::string("the start pose")) +
-                ": inspect the arm's workspace, then unlock the protective stop on the teach pendant; the "
-                "calibration goes on without that station";
+      message = stop < n ? "protective stop on the way to station " + std::to_string(stop + 1) +
+                               ": inspect the arm's workspace, then unlock the protective stop on the teach pendant; "
+                               "the calibration goes on without that station"
+                         : std::string("protective stop on the way back to the start pose: inspect the arm's "
+                                       "workspace, then unlock the protective stop on the teach pendant");
       return false;
     }
     message = reached.load() > n ? std::string("returning the robot to where it started")
@@ -290,11 +298,17 @@ StepResult runLiveRobotCalibration(Session& session, const Json& params, const S
     mover.join();
     throw;
   }
-  if (!done) {
-    abort = true;
-  }
+  const bool ran_out = !done;
+  if (ran_out) abort = true;
   mover.join();
   if (robot_error) std::rethrow_exception(robot_error);
+  if (ran_out) {
+    // The recording's time ran out (a long wait for an unlock): the stations not reached say so.
+    for (std::size_t k = static_cast<std::size_t>(std::max(0, reached.load())); k < stations.q.size(); ++k) {
+      if (windows[k].skipped.empty()) windows[k].skipped = "not reached: the acquisition's time ran out";
+    }
+    stopUntilAtRest(*arm);
+  }
 
   // The pairs: the controller's flange pose and the marker's mean pose over the rest.
   std::vector<Eigen::Isometry3d> fit_flange, fit_marker, val_flange, val_marker, csv_fit;

@@ -134,14 +134,21 @@ class MiddleWireSpread {
   Eigen::Matrix2d sum2_ = Eigen::Matrix2d::Zero();
 };
 
-/// A live sweep's frames split as fCal acquires them, calibration and validation apart: every third frame
-/// validates, so both cover the whole sweep.
+/// A live sweep's frames split into calibration and validation, as fCal acquires them apart: every third block
+/// of 25 consecutive frames (1 s at 25 Hz) validates. Blocks, not single frames: a frame 40 ms from a
+/// calibration frame shows nearly the same image and pose, and would not test the calibration; every third
+/// block, so both sets still cover the whole sweep.
+bool isCalibrationFrame(std::size_t index) {
+  constexpr std::size_t kBlock = 25;
+  return (index / kBlock) % 3 != 2;
+}
+
 void splitSweep(const TrackedSequence& sweep, TrackedSequence& calibration, TrackedSequence& validation) {
   calibration = sweep;
   calibration.frames.clear();
   validation = calibration;
   for (std::size_t i = 0; i < sweep.frames.size(); ++i) {
-    (i % 3 == 2 ? validation : calibration).frames.push_back(sweep.frames[i]);
+    (isCalibrationFrame(i) ? calibration : validation).frames.push_back(sweep.frames[i]);
   }
 }
 
@@ -188,21 +195,30 @@ StepResult runUsSpatialCalibration(Session& session, const Json& params, const S
                                                      : ultrasound::NWireSegmentationOptions{};
     // Each frame segmented as it arrives: the operator sees how many frames show every wire (fCal's count).
     // The calibration needs the middle wires' points spread across the image (spatial_calibration's check,
-    // 2 mm): a sweep that stayed in one place is not done when it has its frames. Pixels to mm by the device
-    // set's approximate spacing.
-    const double spread_needed_mm = ultrasound::SpatialCalibrationOptions{}.min_point_spread_mm;
+    // 2 mm, on the frames that calibrate): a sweep that stayed in one place is not done when it has its frames.
+    // Measured here on the frames splitSweep will give the calibration, in pixels times the device set's
+    // approximate spacing, with a quarter more for what that approximation and the probe frame may differ by.
+    const double spread_needed_mm = 1.25 * ultrasound::SpatialCalibrationOptions{}.min_point_spread_mm;
     MiddleWireSpread spread;
     o.on_frame = [&](const tracking::TrackedImage& image, std::string& message) {
+      const bool calibrates = isCalibrationFrame(seen_live);
       ++seen_live;
       const bool gray = image.format.scalar == PixelType::UInt8 && image.format.components == 1 &&
                         image.geometry.size[2] == 1;
       if (gray) {
         const ultrasound::GrayImageView view{static_cast<int>(image.geometry.size[0]),
                                              static_cast<int>(image.geometry.size[1]), image.pixels};
-        const auto seg = ultrasound::segmentNWires(view, phantom, segmentation);
+        ultrasound::NWireSegmentation seg;
+        try {
+          seg = ultrasound::segmentNWires(view, phantom, segmentation);
+        } catch (const Error& e) {
+          // Not this frame's fault (a phantom the segmentation cannot read): said, and the sweep is still kept.
+          message = std::string("the N-wires cannot be segmented: ") + e.what();
+          return false;
+        }
         if (seg.ok()) {
           ++segmented_live;
-          for (std::size_t k = 1; k < seg.wire_points_px.size(); k += 3) {
+          for (std::size_t k = 1; calibrates && k < seg.wire_points_px.size(); k += 3) {
             spread.add(seg.wire_points_px[k] * segmentation.approximate_spacing_mm);
           }
         }
@@ -254,7 +270,7 @@ StepResult runUsSpatialCalibration(Session& session, const Json& params, const S
     in.calibration = io::readSequence(in.calibration_path);
     checkCancel(context);
     if (has_calibration && !has_validation) {
-      // A user's own recording without a separate validation sweep: validate on every third frame of it.
+      // A user's own recording without a separate validation sweep: validate on every third block of it.
       const TrackedSequence whole = std::move(in.calibration);
       splitSweep(whole, in.calibration, in.validation);
     } else {
@@ -315,7 +331,8 @@ StepResult runUsSpatialCalibration(Session& session, const Json& params, const S
       {"tracker_lag_source", lag_source},
       {"phantom_to_reference_source", phantom_source},
       {"transforms", {{"ImageToProbe", matrixJson(r.probe_T_image)}}}};
-  const bool plus_files = !live && !p.has("calibration") && !p.has("validation") && !p.has("config");
+  const bool plus_files = !live && !p.has("calibration") && !p.has("validation") && !p.has("config") &&
+                          phantom_choice == "config";
   if (plus_files) {
     // PLUS's own result on the same files (data/README.md).
     result.figures["plus_reference"] = {{"calibration_reprojection_3d_mean_mm", 1.15532},

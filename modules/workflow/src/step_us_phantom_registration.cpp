@@ -80,12 +80,13 @@ Eigen::Vector3d stylusTipOf(const Session& session, const std::string& tool) {
 
 StepResult runUsPhantomRegistration(Session& session, const Json& params, const StepContext& context) {
   const Params p("us-phantom-registration", params,
-                 {"source", "host", "port", "recording", "config", "tool", "reference", "duration_s",
+                 {"source", "host", "port", "recording", "config", "tool", "duration_s",
                   "connect_timeout_s", "dwell_s", "dwell_radius_mm", "match_tolerance_mm", "min_landmarks"});
   checkCancel(context);  // cancelled before it started: nothing to check or acquire
-  const std::string tool = p.text("tool", "Stylus"), reference = p.text("reference", "Reference");
-  if (tool.empty() || reference.empty() || tool == reference) {
-    throw InvalidArgumentError("us-phantom-registration: tool and reference must be two tool names (Stylus, Reference)");
+  // The phantom's marker is the device set's Reference: PhantomToReference is what the calibration reads.
+  const std::string tool = p.text("tool", "Stylus"), reference = "Reference";
+  if (tool.empty() || tool == reference) {
+    throw InvalidArgumentError("us-phantom-registration: tool must name the stylus (Stylus), not the Reference");
   }
   RegistrationAcquisitionOptions a;
   a.transform = tool + "To" + reference;
