@@ -5,6 +5,7 @@
 #include <QPushButton>
 #include <QStyle>
 #include <QVariant>
+#include <algorithm>
 
 #include "output_panel.h"
 
@@ -23,8 +24,11 @@ QPushButton* StepList::addStep(const StepEntry& step) {
   button->setObjectName(QStringLiteral("step_") + step.name);
   button->setToolTip(step.description.isEmpty() ? tr("Run the step \"%1\" on the open session").arg(step.name)
                                                 : step.description);
-  button->setMinimumWidth(150);
+  // The step's name is what the user looks for: the button keeps its whole title, and the status beside it
+  // wraps in the room that is left (a long figure, "(simulated)").
+  button->setMinimumWidth(std::max(150, button->sizeHint().width()));
   auto* status = new QLabel(tr("not run"), this);
+  status->setWordWrap(true);
   status->setObjectName(QStringLiteral("status_") + step.name);
   status->setProperty("stepState", QStringLiteral("none"));
   grid->addWidget(button, row, 0);
