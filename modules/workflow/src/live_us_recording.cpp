@@ -3,6 +3,7 @@
 
 #include <chrono>
 #include <map>
+#include <memory>
 #include <mutex>
 #include <thread>
 
@@ -37,7 +38,10 @@ LiveUsRecording recordLiveUltrasound(const LiveUsRecordingOptions& options, cons
 
   std::mutex mutex;
   std::map<std::string, std::vector<std::pair<double, Eigen::Isometry3d>>> poses;
-  std::vector<tracking::TrackedImage> images;
+  // Held by pointer: the network thread's callback and the loop that hands frames to the monitor share the
+  // list under a lock, and neither copies a frame's pixels while holding it (a client that stalls its network
+  // thread makes a PlusServer drop frames).
+  std::vector<std::shared_ptr<tracking::TrackedImage>> images;
   LiveUsRecording out;
   using Clock = std::chrono::steady_clock;
   Clock::time_point last_image{};
@@ -52,14 +56,15 @@ LiveUsRecording recordLiveUltrasound(const LiveUsRecordingOptions& options, cons
     }
   });
   source.setImageCallback([&](const tracking::TrackedImage& image) {
+    auto copy = std::make_shared<tracking::TrackedImage>(image);  // the pixels copied outside the lock
     std::lock_guard lock(mutex);
     if (!images.empty() &&
-        (image.geometry.size != images.front().geometry.size || !(image.format == images.front().format))) {
+        (image.geometry.size != images.front()->geometry.size || !(image.format == images.front()->format))) {
       ++out.frames_refused;
       return;
     }
     if (images.size() >= options.max_frames) return;
-    images.push_back(image);
+    images.push_back(std::move(copy));
     last_image = Clock::now();
   });
   const auto start = Clock::now();
@@ -71,7 +76,7 @@ LiveUsRecording recordLiveUltrasound(const LiveUsRecordingOptions& options, cons
       const double elapsed = std::chrono::duration<double>(Clock::now() - start).count();
       std::size_t frames = 0;
       double idle = 0.0;
-      std::vector<tracking::TrackedImage> fresh;
+      std::vector<std::shared_ptr<tracking::TrackedImage>> fresh;
       {
         std::lock_guard lock(mutex);
         frames = images.size();
@@ -81,7 +86,7 @@ LiveUsRecording recordLiveUltrasound(const LiveUsRecordingOptions& options, cons
       // Outside the lock: the monitor may take a few ms a frame (segmentation) while frames keep arriving.
       for (const auto& image : fresh) {
         ++monitored;
-        if (!out.complete && options.on_frame(image, monitor_message)) out.complete = true;
+        if (!out.complete && options.on_frame(*image, monitor_message)) out.complete = true;
       }
       if (frames == 0 && elapsed > options.connect_timeout_s) {
         throw NetworkError("no ultrasound frame from the PlusServer at " + options.host + ":" +
@@ -118,14 +123,14 @@ LiveUsRecording recordLiveUltrasound(const LiveUsRecordingOptions& options, cons
   out.tracker_frames.reserve(by_time.size());
   for (auto& [t, f] : by_time) out.tracker_frames.push_back(std::move(f));
   TrackedSequence& seq = out.sequence;
-  const auto& first = images.front();
+  const auto& first = *images.front();
   seq.geometry = first.geometry;
   seq.pixel_format = first.format;
   seq.orientation = "MF";  // PlusServer sends MF frames
   for (auto& image : images) {
     TrackedFrame f;
-    f.timestamp = image.timestamp;
-    f.pixels = std::move(image.pixels);
+    f.timestamp = image->timestamp;
+    f.pixels = std::move(image->pixels);  // the network is stopped: nothing else holds the frames now
     for (const auto& [name, samples] : poses) {
       const auto pose = interpolateAt(samples, f.timestamp);
       f.transforms[name] = pose ? FrameTransform{pose->matrix(), TransformStatus::Ok}

@@ -13,6 +13,7 @@
 #include <filesystem>
 #include <sstream>
 
+#include "landmark_touch_step.h"
 #include "live_tracking_recording.h"
 #include "mrsns/core/error.h"
 #include "mrsns/core/format.h"
@@ -37,24 +38,6 @@ struct LiveRegistrationOptions {
   double max_correspondence_mm = 5.0;
 };
 
-Eigen::Vector3d stylusTip(const Session& session, const std::string& tool) {
-  Eigen::Matrix4d marker_T_tip;
-  const std::string name = tool + "TipTo" + tool;
-  if (!findRecordedTransform(session, name, marker_T_tip)) {
-    throw InvalidArgumentError("registration: the session has no " + name + ": run pivot-calibration with tool=" +
-                               tool + " first (the tip is what touches the fiducials)");
-  }
-  return marker_T_tip.block<3, 1>(0, 3);
-}
-
-std::string missingLabels(const RegistrationAcquisition& a, const RegistrationTargets& t) {
-  std::string out;
-  for (std::size_t f = 0; f < a.capture_of_fiducial.size(); ++f) {
-    if (a.capture_of_fiducial[f] < 0) out += (out.empty() ? "" : ", ") + t.labels[f];
-  }
-  return out;
-}
-
 /// What the operator sees while working.
 std::string progressText(const RegistrationAcquisition& a, const RegistrationTargets& t,
                          const LiveRegistrationOptions& o) {
@@ -65,7 +48,7 @@ std::string progressText(const RegistrationAcquisition& a, const RegistrationTar
       << " of " << n << " matched";
     if (a.landmarks) s << " (FRE " << formatFixed(a.landmarks->fre_rms_mm, 2) << " mm)";
     s << ", " << a.captures.size() << " touches";
-    if (a.matched >= 3) s << "; still to touch: " << missingLabels(a, t);
+    if (a.matched >= 3) s << "; still to touch: " << untouchedLabels(a, t);
   } else {
     s << "all " << n << " fiducials matched (FRE " << formatFixed(a.landmarks->fre_rms_mm, 2)
       << " mm): sweep the tip over the exposed bone, then lift it: " << a.surface_patient.size() << " of "
@@ -103,7 +86,7 @@ StepResult runAcquiredRegistration(Session& session, const Json& params, const S
         "registration: min_landmarks must be >= 3, surface_points >= 0, idle_s > 0, dwell_s >= 0.2 s, and "
         "dwell_radius_mm, match_tolerance_mm, surface_gate_mm > 0");
   }
-  a.tip_marker = stylusTip(session, o.tool);
+  a.tip_marker = calibratedTip(session, o.tool, "registration");
   const std::string source = p.text("source", "plus");
   if (source != "plus" && source != "file") {
     throw InvalidArgumentError("registration: source must be plus (live), file or simulated, not '" + source + "'");
@@ -145,16 +128,8 @@ StepResult runAcquiredRegistration(Session& session, const Json& params, const S
   std::string recording;
   Json recorded;
   if (source == "plus") {
-    if (p.has("recording")) throw InvalidArgumentError("registration: recording is for source=file");
-    LiveTrackingOptions live;
-    sessionPlusServer(session, p, live.host, live.port);
-    live.max_duration_s = p.number("duration_s", 180.0);
-    live.connect_timeout_s = p.number("connect_timeout_s", live.connect_timeout_s);
-    if (!(live.max_duration_s > 0.0 && live.max_duration_s <= 1800.0) || !(live.connect_timeout_s > 0.0)) {
-      throw InvalidArgumentError("registration: duration_s must be in (0, 1800] s, connect_timeout_s > 0");
-    }
-    recording = freeSessionName(session, "registration", "PatientRegistration", ".mhd");
-    live.recording = session.resolve(recording);
+    const LiveTrackingOptions live =
+        touchRecordingOptions(session, p, "registration", "PatientRegistration", 180.0, recording);
     context.report(0.1, "connecting to the tracker at " + live.host + ":" + std::to_string(live.port));
     // The analysis of everything so far, twice a second: feedback and the end of the acquisition.
     auto last = std::chrono::steady_clock::now() - std::chrono::seconds(1);
@@ -247,7 +222,7 @@ StepResult runAcquiredRegistration(Session& session, const Json& params, const S
     result.summary = std::to_string(acq.matched) + " of " + std::to_string(ct->fiducials.size()) +
                      " fiducials matched from " + std::to_string(acq.captures.size()) + " touches, " +
                      std::to_string(o.min_landmarks) + " needed" +
-                     (acq.matched >= 3 ? "; not touched: " + missingLabels(acq, targets) : std::string()) + left_out +
+                     (acq.matched >= 3 ? "; not touched: " + untouchedLabels(acq, targets) : std::string()) + left_out +
                      kept;
     return result;
   }
@@ -331,7 +306,7 @@ StepResult runAcquiredRegistration(Session& session, const Json& params, const S
       << formatFixed(suspects[0]["leave_one_out_mm"].get<double>(), 1)
       << " mm from where the others put it): touch it again";
   }
-  if (acq.matched < static_cast<int>(ct->fiducials.size())) s << "; not touched: " << missingLabels(acq, targets);
+  if (acq.matched < static_cast<int>(ct->fiducials.size())) s << "; not touched: " << untouchedLabels(acq, targets);
   s << left_out;
   result.summary = s.str();
   return result;

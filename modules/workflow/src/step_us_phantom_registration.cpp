@@ -9,6 +9,7 @@
 // touches, and gives the same numbers.
 #include <sstream>
 
+#include "landmark_touch_step.h"
 #include "live_tracking_recording.h"
 #include "mrsns/core/data_dir.h"
 #include "mrsns/core/error.h"
@@ -48,32 +49,14 @@ io::DeviceSetConfiguration phantomConfig(const Params& p) {
   return config;
 }
 
-std::string landmarksLeft(const RegistrationAcquisition& a, const RegistrationTargets& t) {
-  std::string out;
-  for (std::size_t f = 0; f < a.capture_of_fiducial.size(); ++f) {
-    if (a.capture_of_fiducial[f] < 0) out += (out.empty() ? "" : ", ") + t.labels[f];
-  }
-  return out;
-}
-
 std::string phantomProgress(const RegistrationAcquisition& a, const RegistrationTargets& t, const std::string& tool) {
   std::ostringstream s;
   s << "touch the phantom's landmarks with the " << tool << " tip, holding each still for a second: " << a.matched
     << " of " << t.labels.size() << " matched";
   if (a.landmarks) s << " (FRE " << formatFixed(a.landmarks->fre_rms_mm, 2) << " mm)";
   s << ", " << a.captures.size() << " touches";
-  if (a.matched >= 3) s << "; still to touch: " << landmarksLeft(a, t);
+  if (a.matched >= 3) s << "; still to touch: " << untouchedLabels(a, t);
   return s.str();
-}
-
-Eigen::Vector3d stylusTipOf(const Session& session, const std::string& tool) {
-  Eigen::Matrix4d marker_T_tip;
-  const std::string name = tool + "TipTo" + tool;
-  if (!findRecordedTransform(session, name, marker_T_tip)) {
-    throw InvalidArgumentError("us-phantom-registration: the session has no " + name +
-                               ": run pivot-calibration with tool=" + tool + " first");
-  }
-  return marker_T_tip.block<3, 1>(0, 3);
 }
 
 }  // namespace
@@ -111,7 +94,7 @@ StepResult runUsPhantomRegistration(Session& session, const Json& params, const 
     throw InvalidArgumentError("us-phantom-registration: min_landmarks must be in [3, " + std::to_string(n) +
                                "] (the phantom's landmarks)");
   }
-  a.tip_marker = stylusTipOf(session, tool);
+  a.tip_marker = calibratedTip(session, tool, "us-phantom-registration");
   const std::string source = p.text("source", "plus");
 
   StepResult result;
@@ -119,16 +102,8 @@ StepResult runUsPhantomRegistration(Session& session, const Json& params, const 
   std::string recording;
   Json recorded;
   if (source == "plus") {
-    if (p.has("recording")) throw InvalidArgumentError("us-phantom-registration: recording is for source=file");
-    LiveTrackingOptions live;
-    sessionPlusServer(session, p, live.host, live.port);
-    live.max_duration_s = p.number("duration_s", 120.0);
-    live.connect_timeout_s = p.number("connect_timeout_s", live.connect_timeout_s);
-    if (!(live.max_duration_s > 0.0 && live.max_duration_s <= 1800.0) || !(live.connect_timeout_s > 0.0)) {
-      throw InvalidArgumentError("us-phantom-registration: duration_s must be in (0, 1800] s, connect_timeout_s > 0");
-    }
-    recording = freeSessionName(session, "us-phantom-registration", "PhantomLandmarks", ".mhd");
-    live.recording = session.resolve(recording);
+    const LiveTrackingOptions live =
+        touchRecordingOptions(session, p, "us-phantom-registration", "PhantomLandmarks", 120.0, recording);
     context.report(0.05, "connecting to the tracker at " + live.host + ":" + std::to_string(live.port));
     auto last = std::chrono::steady_clock::now() - std::chrono::seconds(1);
     std::string shown;
@@ -204,7 +179,7 @@ StepResult runUsPhantomRegistration(Session& session, const Json& params, const 
     result.ok = false;
     result.summary = std::to_string(acq.matched) + " of " + std::to_string(n) + " phantom landmarks matched from " +
                      std::to_string(acq.captures.size()) + " touches, " + std::to_string(min_landmarks) + " needed" +
-                     (acq.matched >= 3 ? "; not touched: " + landmarksLeft(acq, targets) : std::string()) + kept;
+                     (acq.matched >= 3 ? "; not touched: " + untouchedLabels(acq, targets) : std::string()) + kept;
     return result;
   }
   const auto& pp = *acq.landmarks;
@@ -241,7 +216,7 @@ StepResult runUsPhantomRegistration(Session& session, const Json& params, const 
       << formatFixed(suspects[0]["leave_one_out_mm"].get<double>(), 1)
       << " mm from where the others put it): touch it again";
   }
-  if (acq.matched < n) s << "; not touched: " << landmarksLeft(acq, targets);
+  if (acq.matched < n) s << "; not touched: " << untouchedLabels(acq, targets);
   if (acq.frames_without_pose > 0) {
     s << "; " << acq.frames_without_pose << " frames without " << a.transform << " left out";
   }
