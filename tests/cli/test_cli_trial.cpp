@@ -45,9 +45,8 @@ TEST(CliTrial, ShortTrialReportHasEveryFigure) {
        {"/landmarks/fre_rms_mm", "/landmarks/matched", "/surface/rms_mm", "/tre_predicted_at_screws/rms", "/targets",
         "/models", "/paths", "/transforms/CTToPatient", "/recorded/file"}},
       {"hmd-calibration",
-       {"/rigid_rms_mm", "/tre_at_patient_mm", "/transforms/HoloLensToTracker", "/cube_trial/compensated/mean_rms_mm",
-        "/cube_trial/uncompensated/mean_rms_mm", "/cube_trial/pointer/mean_rms_mm", "/cube_trial/noise_model",
-        "/checkerboard_trial/rpee_mean_mm", "/checkerboard_trial/rpee_std_mm", "/checkerboard_trial/noise_model"}},
+       {"/transforms/HologramToTracker", "/views", "/view_spread/max_pairwise_translation_mm", "/recorded/file",
+        "/holds_file", "/acquisition/verification_model", "/offline_command", "/offline_verb"}},
       {"navigation",
        {"/batches", "/frames_in_file", "/mean_loop_latency_ms", "/robot_stopped", "/stop_reason",
         "/deformation/posterior_sd_mean_mm", "/deformation/posterior_fp_mm", "/deformation/prior_sd_mean_mm",
@@ -120,7 +119,29 @@ TEST(CliTrial, ShortTrialReportHasEveryFigure) {
   EXPECT_TRUE(steps["navigation"]["figures"]["robot_stopped"].get<bool>());
   // Paper 001 Fig. 7's ordering (compensated beats the pointer method) and a
   // completed robot placement; the simulated noise is far from this close call.
-  const auto& cube = steps["hmd-calibration"]["figures"]["cube_trial"];
+  // The headset calibrated in the room (the cube held on its hologram in four views), judged at the headset.
+  EXPECT_EQ(steps["hmd-calibration"]["figures"]["source"], "hmd");
+  EXPECT_EQ(steps["hmd-calibration"]["figures"]["views"].size(), 4U);
+  ASSERT_TRUE(room["score"]["scored"].contains("hmd_calibration")) << room["score"].dump();
+  EXPECT_TRUE(room["score"]["scored"]["hmd_calibration"]["overlay_at_headset"].contains("mean_mm"))
+      << "the patient's fiducials shown through the new calibration, measured where the headset displayed them";
+  // Paper 001 Fig. 7 and paper 000's protocol are module trials beside it, in the report.
+  const auto& modules = report["module_trials"];
+  for (const auto& p : {"/cube_trial/compensated/mean_rms_mm", "/cube_trial/uncompensated/mean_rms_mm",
+                        "/cube_trial/pointer/mean_rms_mm", "/cube_trial/noise_model", "/checkerboard_trial/rpee_mean_mm",
+                        "/checkerboard_trial/rpee_std_mm", "/checkerboard_trial/noise_model"}) {
+    EXPECT_TRUE(modules.contains(nlohmann::json::json_pointer(p))) << p;
+  }
+  // No workflow output of the room's session holds the room's truth.
+  for (const auto& entry : std::filesystem::recursive_directory_iterator(dir / "session")) {
+    if (!entry.is_regular_file() || entry.path().extension() == ".raw") continue;
+    const auto text = slurpFile(entry.path());
+    for (const char* word : {"simulation_truth", "HeadsetWorldToTracker", "CTToReference", "tracker_T_ct",
+                             "hmd_cube_operator", "fiducials_ct\""}) {
+      EXPECT_EQ(text.find(word), std::string::npos) << entry.path() << " holds '" << word << "'";
+    }
+  }
+  const auto& cube = modules["cube_trial"];
   EXPECT_LT(cube["compensated"]["mean_rms_mm"].get<double>(), cube["pointer"]["mean_rms_mm"].get<double>());
   EXPECT_GT(steps["robot-placement"]["figures"]["module_trial"]["completed"].get<int>(), 0);
   // Snapshots: written under a display (CI runs under xvfb-run -a), else skipped with the reason.

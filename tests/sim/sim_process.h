@@ -19,6 +19,11 @@ inline std::filesystem::path simBinary() {
   return std::filesystem::path(binary ? binary : ".") / "app" / "sim" / "mrsns-sim";
 }
 
+/// The bundled default scenario (the source tree's).
+inline std::filesystem::path defaultScenario() {
+  return std::filesystem::path(MRSNS_TEST_SOURCE_DIR) / ".." / "resources" / "scenarios" / "default.json";
+}
+
 /// `mrsns-sim ARGS...` to completion.
 inline CliResult runSim(const std::vector<std::string>& args) {
   return runProgram(simBinary(), args);

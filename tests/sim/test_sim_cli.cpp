@@ -13,10 +13,6 @@ namespace {
 
 using Json = nlohmann::json;
 
-std::filesystem::path defaultScenario() {
-  return std::filesystem::path(MRSNS_TEST_SOURCE_DIR) / ".." / "resources" / "scenarios" / "default.json";
-}
-
 std::filesystem::path writeFile(const std::filesystem::path& dir, const std::string& name, const std::string& text) {
   std::ofstream(dir / name) << text;
   return dir / name;

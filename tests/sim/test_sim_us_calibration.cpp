@@ -32,10 +32,6 @@ constexpr double kPivotEnd_s = 10.5;
 constexpr double kTouchStart_s = 12.0;
 constexpr double kTouch_s = 0.8 + 0.5 + 1.5 + 0.5;  // travel, down, dwell, up
 
-std::filesystem::path defaultScenario() {
-  return std::filesystem::path(MRSNS_TEST_SOURCE_DIR) / ".." / "resources" / "scenarios" / "default.json";
-}
-
 /// The default room without its patient and robot, its timeline compressed: pivot, the phantom's landmarks,
 /// then the probe's sweep (held lifted above the bath until then). `misplaced` touches a landmark beside it.
 std::filesystem::path writeUsScenario(const std::filesystem::path& dir, int seed, const Json& misplaced) {

@@ -229,6 +229,10 @@ void MainWindow::buildMenus() {
       [this] { chooseAndRunPivot(); });
   add(steps, tr("&Cancel running task"), QKeySequence(Qt::Key_Escape), QStringLiteral("actionCancel"),
       [this] { cancelTask(); });
+  // What the operator confirms during a step (the HMD calibration's holds): a foot pedal is a key to the
+  // workstation; F8 by default, as pedals ship configured to send a function key.
+  add(steps, tr("C&onfirm (foot pedal)"), QKeySequence(Qt::Key_F8), QStringLiteral("actionConfirm"),
+      [this] { confirmStep(); });
 
   buildDevicesMenu();
 
@@ -265,6 +269,11 @@ void MainWindow::buildStatusBar() {
   cancel_->setToolTip(tr("Cancel the running task (Esc)"));
   cancel_->hide();
   connect(cancel_, &QPushButton::clicked, this, &MainWindow::cancelTask);
+  confirm_ = new QPushButton(tr("Confirm"), this);
+  confirm_->setObjectName(QStringLiteral("taskConfirm"));
+  confirm_->setToolTip(tr("Confirm what the step asks (F8, or the foot pedal): e.g. the cube held on its hologram"));
+  confirm_->hide();
+  connect(confirm_, &QPushButton::clicked, this, &MainWindow::confirmStep);
   statusBar()->addWidget(session_status_, 1);
   sim_label_ = new QLabel(this);
   sim_label_->setObjectName(QStringLiteral("simulatedBanner"));
@@ -274,6 +283,7 @@ void MainWindow::buildStatusBar() {
   statusBar()->addPermanentWidget(sim_label_);
   statusBar()->addPermanentWidget(task_label_);
   statusBar()->addPermanentWidget(progress_);
+  statusBar()->addPermanentWidget(confirm_);
   statusBar()->addPermanentWidget(cancel_);
 }
 
@@ -382,10 +392,13 @@ bool MainWindow::runStep(const QString& step, const nlohmann::json& params) {
   if (refuseWhileBusy(tr("Run %1").arg(step))) return false;
   workflow::Session* session = session_.get();
   const std::string name = step.toStdString();
-  return tasks_->start(step, [session, name, params](const TaskControl& control) {
+  confirm_->setVisible(name == "hmd-calibration");
+  const std::atomic<std::uint64_t>* confirmations = &confirmations_;
+  return tasks_->start(step, [session, name, params, confirmations](const TaskControl& control) {
     workflow::StepContext context;
     context.progress = control.progress;
     context.cancel = control.cancel;
+    context.confirmations = confirmations;
     const workflow::StepResult result = workflow::runStep(*session, name, params, context);
     TaskOutcome outcome;
     outcome.ok = result.ok;
@@ -395,6 +408,12 @@ bool MainWindow::runStep(const QString& step, const nlohmann::json& params) {
     outcome.outputs = result.outputs;
     return outcome;
   });
+}
+
+void MainWindow::confirmStep() {
+  // Counted whether or not a step waits: the step takes only confirmations made while it waits for one.
+  confirmations_.fetch_add(1);
+  if (tasks_->busy()) task_label_->setText(tr("%1: confirmed").arg(tasks_->currentTask()));
 }
 
 bool MainWindow::importFile(ImportKind kind, const QString& path) {
@@ -437,6 +456,7 @@ void MainWindow::onTaskFinished(const QString& name, const TaskOutcome& outcome)
   function_->setBusy(false);
   progress_->hide();
   cancel_->hide();
+  confirm_->hide();
   task_label_->clear();
   const std::string step = name.toStdString();
   if (outcome.cancelled) {

@@ -5,6 +5,8 @@
 // button calls into mrsns::workflow or a module on a worker thread; errors
 // reach the user through the MessagePresenter, never as a crash.
 #include <QMainWindow>
+#include <atomic>
+#include <cstdint>
 #include <QStringList>
 #include <map>
 #include <memory>
@@ -86,6 +88,8 @@ class MainWindow : public QMainWindow {
   /// The pivot-calibration step on a PLUS recording (StylusToReference) or a pose CSV.
   bool runPivotCalibration(const QString& recording);
   void cancelTask();
+  /// The operator's confirmation (the Confirm button, F8, a foot pedal) to the running step.
+  void confirmStep();
   [[nodiscard]] bool taskRunning() const;
 
   /// Starts live navigation: workflow::NavigationLoop on the simulated
@@ -180,6 +184,8 @@ class MainWindow : public QMainWindow {
   QDockWidget* output_dock_ = nullptr;
   QProgressBar* progress_ = nullptr;
   QPushButton* cancel_ = nullptr;
+  QPushButton* confirm_ = nullptr;
+  std::atomic<std::uint64_t> confirmations_{0};
   QLabel* task_label_ = nullptr;
   QLabel* session_status_ = nullptr;
   QLabel* sim_label_ = nullptr;  // SIMULATED banner while mrsns-sim runs

@@ -11,6 +11,8 @@
 #include <QTemporaryDir>
 #include <QTimer>
 
+#include "mrsns/core/error.h"
+#include "mrsns/igtlink/server.h"
 #include "mrsns/workflow/steps.h"
 
 namespace mrsns::gui {
@@ -68,10 +70,24 @@ bool SimulatedRoom::start(const QString& scenario, QString& why) {
   endpoints_ = {};
   process_ = new QProcess(this);
   process_->setProgram(program);
-  process_->setArguments({QStringLiteral("run"), QStringLiteral("--scenario"), scenario, QStringLiteral("--any-ports"),
-                          QStringLiteral("--duration"), QStringLiteral("0"), QStringLiteral("--truth"), truthFile(),
-                          QStringLiteral("--ready-file"), dir_->filePath(QStringLiteral("ready.json")),
-                          QStringLiteral("--json")});
+  QStringList arguments = {QStringLiteral("run"),      QStringLiteral("--scenario"), scenario,
+                           QStringLiteral("--any-ports"), QStringLiteral("--duration"), QStringLiteral("0"),
+                           QStringLiteral("--truth"),  truthFile(),                QStringLiteral("--ready-file"),
+                           dir_->filePath(QStringLiteral("ready.json")), QStringLiteral("--json")};
+  // A headset in the scenario is told a free port for the workstation's hologram stream, so a stream the lab
+  // runs on the usual port (18945) for a real headset is never met by the simulated one.
+  QFile scenario_file(scenario);
+  if (scenario_file.open(QIODevice::ReadOnly)) {
+    const QJsonObject hmd = QJsonDocument::fromJson(scenario_file.readAll()).object().value(QStringLiteral("hmd")).toObject();
+    if (!hmd.isEmpty() && hmd.value(QStringLiteral("enabled")).toBool(true)) {
+      try {
+        arguments << QStringLiteral("--hmd-port") << QString::number(igtlink::freeLocalPort());
+      } catch (const Error&) {
+        // The scenario's own port, then.
+      }
+    }
+  }
+  process_->setArguments(arguments);
   connect(process_, QOverload<int, QProcess::ExitStatus>::of(&QProcess::finished), this,
           [this](int code, QProcess::ExitStatus) {
             poll_->stop();
@@ -108,6 +124,7 @@ void SimulatedRoom::pollReady() {
   endpoints_.rtde_port = robot.value(QStringLiteral("rtde")).toInt();
   endpoints_.dashboard_port = robot.value(QStringLiteral("dashboard")).toInt();
   endpoints_.realtime_port = robot.value(QStringLiteral("realtime")).toInt();
+  endpoints_.hmd_port = j.value(QStringLiteral("hmd_port")).toInt();
   ready_ = true;
   emit becameReady(endpoints_);
 }

@@ -20,6 +20,8 @@ struct SimulatedRoomEndpoints {
   int rtde_port = 0;
   int dashboard_port = 0;
   int realtime_port = 0;
+  /// The port of the workstation's hologram stream the room's headset connects to (0: the room has none).
+  int hmd_port = 0;
 };
 
 class SimulatedRoom : public QObject {

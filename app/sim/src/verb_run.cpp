@@ -30,6 +30,7 @@ struct RunOptions {
   std::string ready_file;
   double duration_s = -1.0;
   bool any_ports = false;
+  int hmd_port = 0;
 };
 
 // Written atomically once every device listens: a test or `mrsns-cli trial` waits for it.
@@ -43,8 +44,10 @@ void writeReadyFile(const std::filesystem::path& path, const Json& ready) {
   std::filesystem::rename(tmp, path);
 }
 
-Json endpointsJson(const simulation::OperatingRoomEndpoints& e) {
+Json endpointsJson(const simulation::OperatingRoomEndpoints& e, const simulation::Scenario& scenario) {
   Json j{{"host", e.host}, {"plus_port", e.plus_port}, {"pid", static_cast<long>(::getpid())}};
+  // The headset is a client: where it looks for the workstation's hologram stream.
+  if (scenario.hmd.enabled) j["hmd_port"] = scenario.hmd.port;
   if (e.robot) {
     j["robot"] = {{"rtde", e.rtde_port},
                   {"dashboard", e.dashboard_port},
@@ -57,6 +60,12 @@ Json endpointsJson(const simulation::OperatingRoomEndpoints& e) {
 int run(const RunOptions& o, const SimOptions& options) {
   auto scenario = simulation::readScenario(o.scenario);
   if (o.duration_s >= 0.0) scenario.duration_s = o.duration_s;
+  if (o.hmd_port > 0) {
+    if (!scenario.hmd.enabled) {
+      throw InvalidArgumentError("--hmd-port: the scenario '" + o.scenario + "' has no headset (hmd)");
+    }
+    scenario.hmd.port = static_cast<std::uint16_t>(o.hmd_port);
+  }
   if (o.any_ports) {
     scenario.tracker.port = 0;
     scenario.robot.rtde_port = scenario.robot.dashboard_port = 0;
@@ -71,7 +80,7 @@ int run(const RunOptions& o, const SimOptions& options) {
   std::signal(SIGTERM, onSignal);
   room.start();
   const auto endpoints = room.endpoints();
-  if (!o.ready_file.empty()) writeReadyFile(o.ready_file, endpointsJson(endpoints));
+  if (!o.ready_file.empty()) writeReadyFile(o.ready_file, endpointsJson(endpoints, scenario));
   if (!options.json) {
     std::printf("mrsns-sim: scenario '%s' serving PlusServer on %s:%u%s (Ctrl-C to stop)\n", scenario.name.c_str(),
                 endpoints.host.c_str(), endpoints.plus_port, endpoints.robot ? ", UR controller" : "");
@@ -84,7 +93,7 @@ int run(const RunOptions& o, const SimOptions& options) {
   Json j{{"scenario", scenario.name},
          {"elapsed_s", s.elapsed_s},
          {"stopped_by", g_stop.load() ? "signal" : "duration"},
-         {"endpoints", endpointsJson(endpoints)},
+         {"endpoints", endpointsJson(endpoints, scenario)},
          {"tracker_samples", s.tracker_samples},
          {"invalid_tool_samples", s.invalid_tool_samples},
          {"tracker_overruns", s.tracker_overruns},
@@ -127,6 +136,10 @@ VerbAction registerRunVerb(CLI::App& app, SimOptions& options, CLI::App*& sub) {
   sub->add_flag("--any-ports", o->any_ports,
                 "listen on ports the system picks instead of the scenario's (see --ready-file); for tests and "
                 "several rooms on one machine");
+  sub->add_option("--hmd-port", o->hmd_port,
+                  "the port of the workstation's hologram stream the scenario's headset connects to (overrides "
+                  "the scenario's hmd.port)")
+      ->check(CLI::Range(1, 65535));
   sub->add_flag("--json", options.json, "print one JSON object at the end");
   return [o, &options] { return run(*o, options); };
 }

@@ -25,6 +25,7 @@
 #include "mrsns/simulation/hmd_emulator.h"
 #include "mrsns/simulation/plus_server.h"
 #include "mrsns/simulation/world.h"
+#include "cube_operator.h"
 
 namespace mrsns::simulation {
 
@@ -66,6 +67,7 @@ struct HmdTruth {
   std::vector<std::array<double, 7>> world_T_model;
   std::vector<std::array<double, 7>> tracker_T_model;  // where the wearer sees it (tracked headsets only)
   std::vector<bool> visible;
+  std::optional<std::array<double, 7>> tracker_T_ct;  // where the patient's CT truly is at that instant
 };
 
 struct EventTruth {
@@ -82,6 +84,7 @@ struct OperatingRoom::Impl {
   std::unique_ptr<PlusServerEmulator> plus;
   std::unique_ptr<robot::UrSimulator> ur;
   std::unique_ptr<HmdEmulator> hmd;
+  std::unique_ptr<CubeOperator> cube_operator;  ///< the HMD calibration's operator (a tracked headset only)
   /// The headset's world frame in the tracker's, anchored at the start (a tracked headset only).
   std::optional<Eigen::Isometry3d> tracker_T_hmd_world;
   std::optional<TrackedSequence> replay;
@@ -97,6 +100,7 @@ struct OperatingRoom::Impl {
   std::vector<TrackerTruth> tracker_truth;
   std::vector<FrameTruth> frame_truth;
   std::vector<HmdTruth> hmd_truth;
+  std::vector<CubeOperator::MatchTruth> cube_matches;
   std::vector<EventTruth> events;
   OperatingRoomStats stats;
 
@@ -150,7 +154,7 @@ struct OperatingRoom::Impl {
         guideArm(t);
         base_T_flange = ur->armState().base_T_flange;
       }
-      const auto truth = world->tools(t, base_T_flange);
+      const auto truth = world->tools(t, base_T_flange, heldTools(t, base_T_flange));
       std::vector<MeasuredTool> measured;
       measured.reserve(truth.size());
       TrackerTruth record{t, utc0 + t, {}};
@@ -278,6 +282,25 @@ struct OperatingRoom::Impl {
   std::vector<std::pair<double, std::string>> pending_confirmations;
   std::vector<bool> timeline_confirmed;
 
+  // The cube in the operator's hand, lined up with where the headset shows its hologram (in the tracker frame:
+  // the headset's world frame placed by its truth).
+  std::vector<World::HeldTool> heldTools(double t, const std::optional<Eigen::Isometry3d>& base_T_flange) {
+    if (!cube_operator) return {};
+    std::optional<Eigen::Isometry3d> shown;
+    for (const auto& m : hmd->displayed()) {
+      if (m.name == scenario.hmd.cube.hologram && m.visible && tracker_T_hmd_world) {
+        shown = *tracker_T_hmd_world * m.world_T_model;
+      }
+    }
+    Eigen::Isometry3d rest = Eigen::Isometry3d::Identity();
+    for (const auto& tool : world->tools(t, base_T_flange)) {
+      if (tool.name == scenario.hmd.cube.tool) rest = tool.tracker_T_tool;
+    }
+    const auto held = cube_operator->pose(t, rest, shown);
+    if (!held) return {};
+    return {{scenario.hmd.cube.tool, *held}};
+  }
+
   void operateHeadset(double t) {
     const auto& spec = scenario.hmd;
     const auto received = hmd->stats().prompts;
@@ -286,6 +309,7 @@ struct OperatingRoom::Impl {
       const auto fresh = std::min<std::uint64_t>(received - prompts_seen, prompts.size());
       for (auto i = prompts.size() - fresh; i < prompts.size(); ++i) {
         event(t, "hmd prompt: " + prompts[i], false);
+        if (cube_operator) cube_operator->onPrompt(t, prompts[i]);
         for (const auto& r : spec.responses) {
           if (prompts[i].find(r.prompt_contains) != std::string::npos) {
             pending_confirmations.emplace_back(t + r.after_s, r.confirm);
@@ -293,6 +317,11 @@ struct OperatingRoom::Impl {
         }
       }
       prompts_seen = received;
+    }
+    if (cube_operator) {
+      if (auto c = cube_operator->confirmationDue(t)) pending_confirmations.emplace_back(t, *c);
+      std::lock_guard lock(truth_mutex);
+      cube_matches = cube_operator->matches();
     }
     timeline_confirmed.resize(spec.confirmations.size(), false);
     for (std::size_t i = 0; i < spec.confirmations.size(); ++i) {
@@ -315,7 +344,8 @@ struct OperatingRoom::Impl {
 
   // At 10 Hz: what the emulated headset displays (its truth: what the wearer would see).
   void recordHmd(double t) {
-    HmdTruth h{utc0 + t, {}, {}, {}, {}};
+    HmdTruth h{utc0 + t, {}, {}, {}, {}, std::nullopt};
+    if (scenario.patient) h.tracker_T_ct = compact(world->trackerTCt(t));
     for (const auto& m : hmd->displayed()) {
       h.names.push_back(m.name);
       h.world_T_model.push_back(compact(m.world_T_model));
@@ -562,6 +592,9 @@ void OperatingRoom::start() {
         if (tool.name == s.hmd.marker_tool) impl_->tracker_T_hmd_world = tool.tracker_T_tool * s.hmd.marker_T_world;
       }
     }
+    if (s.hmd.cube.enabled && impl_->tracker_T_hmd_world) {
+      impl_->cube_operator = std::make_unique<CubeOperator>(s.hmd.cube, s.seed);
+    }
     impl_->hmd->start();
   }
   impl_->t0 = Clock::now();
@@ -660,9 +693,21 @@ void OperatingRoom::writeTruth(const std::filesystem::path& path) const {
     for (const auto& h : impl_->hmd_truth) {
       Json d{{"utc", h.utc}, {"models", h.names}, {"world_T_model", h.world_T_model}, {"visible", h.visible}};
       if (!h.tracker_T_model.empty()) d["tracker_T_model"] = h.tracker_T_model;
+      if (h.tracker_T_ct) d["tracker_T_ct"] = *h.tracker_T_ct;
       displayed.push_back(d);
     }
     j["hmd_displayed"] = displayed;
+    Json matches = Json::array();
+    for (const auto& m : impl_->cube_matches) {
+      const auto& e = m.perception_error_mm;
+      matches.push_back({{"view", m.view},
+                         {"prompt_t", m.prompt_t},
+                         {"hold_t", std::isfinite(m.hold_t) ? Json(m.hold_t) : Json(nullptr)},
+                         {"perception_error_mm", {e.x(), e.y(), e.z()}},
+                         {"depth_error_mm", m.depth_error_mm},
+                         {"confirmed", m.confirmed}});
+    }
+    if (!matches.empty()) j["hmd_cube_matches"] = matches;
     if (impl_->tracker_T_hmd_world) {
       Json m = Json::array();
       for (int r = 0; r < 4; ++r) {

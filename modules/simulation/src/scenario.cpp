@@ -107,6 +107,21 @@ class Node {
     if (!out.allFinite()) failKey(key, "must be finite");
     return out;
   }
+  /// A range [low, high] of two numbers within [lo, hi], low <= high.
+  std::array<double, 2> range(const char* key, std::array<double, 2> fallback, double lo, double hi) const {
+    if (!has(key)) return fallback;
+    const auto& v = json_.at(key);
+    if (!v.is_array() || v.size() != 2 || !v[0].is_number() || !v[1].is_number()) {
+      failKey(key, "must be [low, high]");
+    }
+    const std::array<double, 2> out{v[0].get<double>(), v[1].get<double>()};
+    if (!std::isfinite(out[0]) || !std::isfinite(out[1]) || out[0] < lo || out[1] > hi || out[0] > out[1]) {
+      std::ostringstream s;
+      s << "must be [low, high] with " << lo << " <= low <= high <= " << hi;
+      failKey(key, s.str());
+    }
+    return out;
+  }
   std::vector<int> integers(const char* key) const {
     std::vector<int> out;
     if (!has(key)) return out;
@@ -186,6 +201,57 @@ std::filesystem::path filePath(const Node& n, const char* key, const std::filesy
     throw FileError("'" + n.at(key) + "': " + p.string() + " does not exist");
   }
   return p;
+}
+
+CubeOperatorSpec readCubeOperator(const Node& n) {
+  n.allow({"enabled", "tool", "hologram", "prompt_contains", "confirm", "align_s", "confirm_after_s", "hold_s", "views",
+           "depth_bias_mm", "depth_error_mm", "lateral_error_mm", "rotation_deg", "tremor_mm", "tremor_hz",
+           "tremor_rotation_deg", "drift_mm_per_s", "jerks_per_s", "jerk_mm", "jerk_duration_s"});
+  CubeOperatorSpec c;
+  c.enabled = n.boolean("enabled", true);
+  c.tool = n.text("tool", c.tool);
+  c.hologram = n.text("hologram", c.hologram);
+  c.prompt_contains = n.text("prompt_contains", c.prompt_contains);
+  c.confirm = n.text("confirm", c.confirm);
+  if (c.hologram.empty() || c.prompt_contains.empty() || c.confirm.empty()) {
+    n.fail("needs a non-empty hologram, prompt_contains and confirm");
+  }
+  c.align_s = n.number("align_s", c.align_s, 0.1, 600.0);
+  c.confirm_after_s = n.number("confirm_after_s", c.confirm_after_s, 0.0, 600.0);
+  c.hold_s = n.number("hold_s", c.hold_s, 0.1, 600.0);
+  for (const auto& v : n.array("views")) {
+    v.allow({"name", "eye_from_cube_mm"});
+    CubeView view;
+    view.name = v.required("name");
+    view.eye_from_cube_mm = v.vector3("eye_from_cube_mm", view.eye_from_cube_mm);
+    if (view.name.empty() || view.eye_from_cube_mm.norm() < 100.0) {
+      v.fail("needs a name and eyes at least 100 mm from the cube");
+    }
+    c.views.push_back(view);
+  }
+  if (c.views.empty()) {
+    // Paper 001's four views around a cube held in front of the tracker (the camera looks along -z).
+    c.views = {{"front", {0.0, -350.0, 350.0}},
+               {"left", {-450.0, 0.0, 250.0}},
+               {"right", {450.0, 0.0, 250.0}},
+               {"ground", {0.0, 0.0, 500.0}}};
+  }
+  c.depth_bias_mm = n.number("depth_bias_mm", c.depth_bias_mm, -50.0, 50.0);
+  c.depth_error_mm = n.number("depth_error_mm", c.depth_error_mm, 0.0, 50.0);
+  c.lateral_error_mm = n.number("lateral_error_mm", c.lateral_error_mm, 0.0, 50.0);
+  c.rotation_deg = n.number("rotation_deg", c.rotation_deg, 0.0, 20.0);
+  c.tremor_mm = n.number("tremor_mm", c.tremor_mm, 0.0, 20.0);
+  const auto range = n.range("tremor_hz", {c.tremor_min_hz, c.tremor_max_hz}, 0.1, 60.0);
+  c.tremor_min_hz = range[0];
+  c.tremor_max_hz = range[1];
+  c.tremor_rotation_deg = n.number("tremor_rotation_deg", c.tremor_rotation_deg, 0.0, 10.0);
+  c.drift_mm_per_s = n.number("drift_mm_per_s", c.drift_mm_per_s, 0.0, 100.0);
+  c.jerks_per_s = n.number("jerks_per_s", c.jerks_per_s, 0.0, 50.0);
+  const auto jerk = n.range("jerk_mm", {c.jerk_min_mm, c.jerk_max_mm}, 0.0, 100.0);
+  c.jerk_min_mm = jerk[0];
+  c.jerk_max_mm = jerk[1];
+  c.jerk_duration_s = n.number("jerk_duration_s", c.jerk_duration_s, 0.001, 5.0);
+  return c;
 }
 
 void checkToolName(const Node& n, const char* key, const std::string& name) {
@@ -591,7 +657,7 @@ Scenario parseScenario(const std::string& json_text, const std::filesystem::path
   if (root.has("hmd")) {
     const Node n = root.child("hmd");
     n.allow({"enabled", "host", "port", "unity", "drift_mm_per_min", "jitter_mm", "respond", "confirmations",
-             "marker_tool", "world_to_marker"});
+             "marker_tool", "world_to_marker", "cube"});
     s.hmd.marker_tool = n.text("marker_tool", "");
     if (!s.hmd.marker_tool.empty()) checkToolName(n, "marker_tool", s.hmd.marker_tool);
     s.hmd.marker_T_world = n.pose("world_to_marker", s.hmd.marker_T_world);
@@ -619,6 +685,15 @@ Scenario parseScenario(const std::string& json_text, const std::filesystem::path
     s.hmd.unity = n.boolean("unity", false);
     s.hmd.drift_mm_per_min = n.number("drift_mm_per_min", 0.0, 0.0, 1000.0);
     s.hmd.jitter_mm = n.number("jitter_mm", 0.0, 0.0, 100.0);
+    if (n.has("cube")) {
+      s.hmd.cube = readCubeOperator(n.child("cube"));
+      if (!names.count(s.hmd.cube.tool)) {
+        n.child("cube").failKey("tool", "'" + s.hmd.cube.tool + "' is not one of the scenario's tools");
+      }
+      if (s.hmd.marker_tool.empty()) {
+        n.fail("has a cube operator but no marker_tool: the headset must be tracked to know where it shows the cube");
+      }
+    }
   }
   for (const auto& f : root.array("faults")) {
     s.faults.push_back(readFault(f));

@@ -71,6 +71,83 @@ const Json* recordedTransform(const Json& session, const std::string& step, cons
   return &s["figures"]["transforms"][name];
 }
 
+Eigen::Isometry3d compactPose(const Json& p) {
+  Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
+  t.translation() = Eigen::Vector3d(p[0].get<double>(), p[1].get<double>(), p[2].get<double>());
+  t.linear() = Eigen::Quaterniond(p[3].get<double>(), p[4].get<double>(), p[5].get<double>(), p[6].get<double>())
+                   .normalized()
+                   .toRotationMatrix();
+  return t;
+}
+
+// The HMD calibration against where the headset's world truly is, and the overlay measured where the wearer
+// sees it (paper 001 Eq. 23): the patient's fiducials as the headset displayed them against where they were.
+void scoreHmdCalibration(const Json& session, const Json& truth, Json& scored, Json& not_scored) {
+  const Json* est = recordedTransform(session, "hmd-calibration", "HologramToTracker");
+  if (est == nullptr) {
+    not_scored.push_back("hmd-calibration (not run, failed, without HologramToTracker, or not acquired from mrsns-sim)");
+    return;
+  }
+  if (!truth.contains("HeadsetWorldToTracker")) {
+    not_scored.push_back("hmd-calibration (the scenario's headset is not tracked: no truth of its world frame)");
+    return;
+  }
+  const Json& st = truth.at("static");
+  const Eigen::Isometry3d e(matrix(*est, "session HologramToTracker"));
+  const Eigen::Isometry3d t(matrix(truth["HeadsetWorldToTracker"], "truth HeadsetWorldToTracker"));
+  Json h = {{"definition",
+             "HologramToTracker against the headset's true world frame: translation and rotation error, the "
+             "error of the map where the cube's hologram was shown, and at the patient's true fiducials (where the estimate puts a hologram meant "
+             "for each). overlay_at_headset: paper 001 Eq. 23, the RMS over the patient's fiducials of the "
+             "distance between where the headset displayed them (the workstation's verification overlay, "
+             "through the whole chain: tracking, registration, HMD calibration, headset jitter) and where they "
+             "were, per displayed frame"},
+            {"translation_error_mm", (e.translation() - t.translation()).norm()},
+            {"rotation_error_deg", rotationAngleBetween(e.linear(), t.linear()) * 180.0 / M_PI}};
+  if (st.contains("hmd_cube_operator")) h["noise_model"] = st["hmd_cube_operator"];
+  const Json& figures = session["steps"]["hmd-calibration"]["figures"];
+  const Json position = figures.value("acquisition", Json::object()).value("hologram_position_mm", Json());
+  if (position.is_array() && position.size() == 3) {
+    // Where the operator matched the cube: the map's error there is what the matching itself left.
+    const Eigen::Vector3d c(position[0].get<double>(), position[1].get<double>(), position[2].get<double>());
+    h["error_at_cube_hologram_mm"] = (e * c - t * c).norm();
+  }
+  std::vector<Eigen::Vector3d> fiducials_ct;
+  for (const auto& f : st.value("fiducials_ct", Json::array())) {
+    fiducials_ct.emplace_back(f["ct_mm"][0].get<double>(), f["ct_mm"][1].get<double>(), f["ct_mm"][2].get<double>());
+  }
+  const Json verification = figures.value("acquisition", Json::object()).value("verification_model", Json());
+  const std::string model = verification.is_string() ? verification.get<std::string>() : std::string();
+  std::vector<double> calibration_errors, overlay_rms;
+  for (const auto& d : truth.value("hmd_displayed", Json::array())) {
+    if (!d.contains("tracker_T_ct")) continue;
+    const Eigen::Isometry3d tracker_T_ct = compactPose(d["tracker_T_ct"]);
+    if (calibration_errors.empty()) {
+      for (const auto& p : fiducials_ct) {
+        const Eigen::Vector3d x = tracker_T_ct * p;
+        calibration_errors.push_back((e * (t.inverse() * x) - x).norm());
+      }
+    }
+    if (model.empty() || !d.contains("tracker_T_model")) continue;
+    for (std::size_t i = 0; i < d["models"].size(); ++i) {
+      if (d["models"][i] != model || !d["visible"][i].get<bool>()) continue;
+      const Eigen::Isometry3d shown = compactPose(d["tracker_T_model"][i]);
+      double sum = 0.0;
+      for (const auto& p : fiducials_ct) sum += (shown * p - tracker_T_ct * p).squaredNorm();
+      if (!fiducials_ct.empty()) overlay_rms.push_back(std::sqrt(sum / static_cast<double>(fiducials_ct.size())));
+    }
+  }
+  if (!calibration_errors.empty()) h["error_at_patient_fiducials"] = stats(calibration_errors);
+  if (!overlay_rms.empty()) {
+    h["overlay_at_headset"] = stats(overlay_rms);
+    h["overlay_at_headset"]["frames"] = overlay_rms.size();
+  } else {
+    h["overlay_at_headset"] = model.empty() ? "not measured: the step showed no verification overlay (no registration)"
+                                            : "not measured: the headset never displayed " + model;
+  }
+  scored["hmd_calibration"] = h;
+}
+
 }  // namespace
 
 std::string scoreSession(const std::filesystem::path& session_dir, const std::filesystem::path& truth_file) {
@@ -225,6 +302,8 @@ std::string scoreSession(const std::filesystem::path& session_dir, const std::fi
     not_scored.push_back(
         "robot-calibration (not run, failed, without RobotBaseToTracker, or not acquired from mrsns-sim)");
   }
+
+  scoreHmdCalibration(session, truth, scored, not_scored);
 
   out["scored"] = scored;
   out["not_scored"] = not_scored;

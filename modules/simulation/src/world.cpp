@@ -436,10 +436,16 @@ Visibility World::visibility(const ToolSpec& tool, const Eigen::Isometry3d& trac
   return Visibility::Visible;
 }
 
-std::vector<ToolTruth> World::tools(double t, const std::optional<Eigen::Isometry3d>& robot_base_T_flange) const {
+std::vector<ToolTruth> World::tools(double t, const std::optional<Eigen::Isometry3d>& robot_base_T_flange,
+                                    const std::vector<HeldTool>& held) const {
   std::vector<Eigen::Isometry3d> poses;
   poses.reserve(scenario_.tools.size());
-  for (std::size_t i = 0; i < scenario_.tools.size(); ++i) poses.push_back(toolPose(i, t));
+  for (std::size_t i = 0; i < scenario_.tools.size(); ++i) {
+    poses.push_back(toolPose(i, t));
+    for (const auto& h : held) {
+      if (h.name == scenario_.tools[i].name) poses.back() = h.tracker_T_tool;
+    }
+  }
   std::vector<ToolTruth> out;
   out.reserve(poses.size() + 1);
   for (std::size_t i = 0; i < poses.size(); ++i) {
@@ -546,6 +552,21 @@ std::string World::staticTruthJson() const {
     tips[scenario_.robot.marker_tool] = {tip.x(), tip.y(), tip.z()};
   }
   j["tool_tips_mm"] = tips;
+  if (scenario_.hmd.cube.enabled) {
+    const auto& c = scenario_.hmd.cube;
+    j["hmd_cube_operator"] = {{"depth_bias_mm", c.depth_bias_mm},
+                              {"depth_error_sd_mm", c.depth_error_mm},
+                              {"lateral_error_sd_mm", c.lateral_error_mm},
+                              {"rotation_sd_deg", c.rotation_deg},
+                              {"tremor_amplitude_mm", c.tremor_mm},
+                              {"tremor_hz", {c.tremor_min_hz, c.tremor_max_hz}},
+                              {"drift_mm_per_s", c.drift_mm_per_s},
+                              {"jerks_per_s", c.jerks_per_s},
+                              {"jerk_mm", {c.jerk_min_mm, c.jerk_max_mm}},
+                              {"headset_jitter_mm", scenario_.hmd.jitter_mm},
+                              {"headset_drift_mm_per_min", scenario_.hmd.drift_mm_per_min},
+                              {"tracker_position_rms_mm", scenario_.tracker.noise.position_rms_mm}};
+  }
   if (patient_ && patient_->soft_tissue) j["soft_tissue"] = nlohmann::json::parse(patient_->soft_tissue->truthJson());
   if (patient_ && patient_->phantom) {
     nlohmann::json fiducials = nlohmann::json::array();

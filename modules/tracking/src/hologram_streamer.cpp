@@ -4,6 +4,7 @@
 
 #include "mrsns/core/error.h"
 #include "mrsns/core/log.h"
+#include "mrsns/core/wall_clock.h"
 #include "mrsns/igtlink/codec.h"
 #include "mrsns/igtlink/polydata_mesh.h"
 #include "mrsns/tracking/unity_convention.h"
@@ -151,6 +152,9 @@ void HologramStreamer::onConnect(igtlink::ClientId client) noexcept {
         ++stats_.statuses_queued;
       }
     }
+    if (!prompt_.empty() && server_.sendEncoded(client, promptBytes(), igtlink::Channel::Reliable)) {
+      ++stats_.prompts_queued;
+    }
     ready_.insert(client);
     ++stats_.clients_served;
     logger()->info("hologram stream: client {} connected, {} model(s) queued", client, mesh_bytes_.size());
@@ -168,8 +172,39 @@ void HologramStreamer::onDisconnect(igtlink::ClientId client) noexcept {
   }
 }
 
+Bytes HologramStreamer::promptBytes() const {
+  igtlink::StringContent text;
+  text.encoding = igtlink::kEncodingUsAscii;
+  for (const char c : prompt_) {
+    if (static_cast<unsigned char>(c) >= 0x80) text.encoding = igtlink::kEncodingUtf8;
+  }
+  text.text = prompt_;
+  const auto message = igtlink::makeMessage("Prompt", std::move(text), unixTimeSeconds());
+  return std::make_shared<const std::vector<std::uint8_t>>(igtlink::encodeMessage(message, options_.version));
+}
+
+void HologramStreamer::setPrompt(const std::string& text) {
+  if (text.size() > 65535) throw InvalidArgumentError("hologram stream: a prompt is at most 65535 bytes");
+  std::lock_guard lock(mutex_);
+  prompt_ = text;
+  sendToReady(promptBytes(), igtlink::Channel::Reliable);
+  stats_.prompts_queued += ready_.size();
+}
+
 void HologramStreamer::onClientMessage(igtlink::ClientId client, const igtlink::Message& message) noexcept {
   try {
+    if (options_.on_confirmation && message.header.type == "STRING" && message.header.device_name == "Confirm") {
+      const auto* text = message.as<igtlink::StringContent>();
+      if (text != nullptr && text->text.size() <= kMaxConfirmationBytes) {
+        {
+          std::lock_guard lock(mutex_);
+          ++stats_.confirmations;
+        }
+        logger()->info("hologram stream: confirmation '{}' from client {}", text->text, client);
+        options_.on_confirmation(client, text->text);
+        return;
+      }
+    }
     std::lock_guard lock(mutex_);
     ++stats_.client_messages_ignored;
     const auto now = std::chrono::steady_clock::now();

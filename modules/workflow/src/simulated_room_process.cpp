@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "mrsns/core/error.h"
+#include "mrsns/igtlink/server.h"
 
 namespace mrsns::workflow::detail {
 
@@ -23,6 +24,17 @@ namespace fs = std::filesystem;
 namespace {
 
 /// fork + exec with stdout and stderr into `log` (appended); returns the pid.
+// A scenario whose headset is enabled (mrsns-sim reads it again and reports its errors).
+bool hasHeadset(const fs::path& scenario) {
+  try {
+    std::ifstream in(scenario);
+    const auto j = nlohmann::json::parse(in);
+    return j.contains("hmd") && j["hmd"].is_object() && j["hmd"].value("enabled", true);
+  } catch (const nlohmann::json::exception&) {
+    return false;
+  }
+}
+
 pid_t spawn(const fs::path& program, const std::vector<std::string>& args, const fs::path& log) {
   std::vector<char*> argv;
   std::string program_text = program.string();
@@ -92,11 +104,15 @@ SimulatedRoomProcess::SimulatedRoomProcess(const fs::path& program, const fs::pa
     : log_(log) {
   const fs::path ready = truth.parent_path() / "ready.json";
   fs::remove(ready);
-  pid_ = spawn(program,
-               // Until stopped: the trial's steps take as long as they take, the room waits for them.
-               {"run", "--scenario", scenario.string(), "--truth", truth.string(), "--any-ports", "--duration", "0",
-                "--ready-file", ready.string(), "--json"},
-               log);
+  // Until stopped: the trial's steps take as long as they take, the room waits for them.
+  std::vector<std::string> args = {"run",         "--scenario", scenario.string(), "--truth",      truth.string(),
+                                   "--any-ports", "--duration", "0",               "--ready-file", ready.string(),
+                                   "--json"};
+  if (hasHeadset(scenario)) {
+    args.push_back("--hmd-port");
+    args.push_back(std::to_string(igtlink::freeLocalPort()));
+  }
+  pid_ = spawn(program, args, log);
   const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(ready_timeout_s);
   while (!fs::exists(ready)) {
     if (const auto code = waitFor(pid_, 0.0)) {

@@ -16,7 +16,10 @@ std::filesystem::path findSimProgram();
 class SimulatedRoomProcess {
  public:
   /// Starts `mrsns-sim run` on `scenario` with every port chosen by the
-  /// system; its truth goes to `truth`, its output to `log`. Waits for the
+  /// system (a scenario's headset, a client, is told a free local port for the
+  /// workstation's hologram stream: endpoints()["hmd_port"], so rooms run side
+  /// by side never meet each other's headsets); its truth goes to `truth`, its
+  /// output to `log`. Waits for the
   /// ready file. Throws FileError when the program cannot start or the room
   /// is not ready within `ready_timeout_s` (the message holds its log's tail).
   SimulatedRoomProcess(const std::filesystem::path& program, const std::filesystem::path& scenario,

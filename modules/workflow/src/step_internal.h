@@ -72,6 +72,8 @@ StepResult runAcquiredRegistration(Session& session, const Json& params, const S
 /// registration with source=simulated: the in-process simulated patient.
 StepResult runSimulatedRegistration(Session& session, const Json& params, const StepContext& context);
 StepResult runHmdCalibration(Session& session, const Json& params, const StepContext& context);
+/// hmd-calibration with source=hmd (the cube held on its hologram in the headset) or file (its recording).
+StepResult runAcquiredHmdCalibration(Session& session, const Json& params, const StepContext& context);
 StepResult runNavigation(Session& session, const Json& params, const StepContext& context);
 StepResult runRobotPlacement(Session& session, const Json& params, const StepContext& context);
 

@@ -101,9 +101,14 @@ StepResult runRobotCalibration(Session& session, const Json& params, const StepC
   return result;
 }
 
-StepResult runHmdCalibration(Session& /*session*/, const Json& params, const StepContext& context) {
+StepResult runHmdCalibration(Session& session, const Json& params, const StepContext& context) {
+  // source=hmd: the cube held on its hologram in the session's headset; file: a recording of that. Otherwise
+  // the in-process simulated cube below.
+  if (params.is_object() && params.contains("source") && params["source"] != "simulated") {
+    return runAcquiredHmdCalibration(session, params, context);
+  }
   const Params p("hmd-calibration", params,
-                 {"seed", "hologram_noise_mm", "tracker_noise_mm", "cube_poses", "cube_trials", "checkerboard_poses"});
+                 {"source", "seed", "hologram_noise_mm", "tracker_noise_mm", "cube_poses", "cube_trials", "checkerboard_poses"});
   const auto seed = static_cast<std::uint64_t>(p.integer("seed", 1));
   const double holo_noise = p.number("hologram_noise_mm", 1.5);
   const double tracker_noise = p.number("tracker_noise_mm", 0.25);

@@ -1,6 +1,7 @@
 // The phantom trial: every step on a fresh session, then the report.
 #include "mrsns/workflow/trial.h"
 
+#include <algorithm>
 #include <chrono>
 #include <fstream>
 #include <memory>
@@ -9,6 +10,7 @@
 #include "mrsns/core/data_dir.h"
 #include "mrsns/core/error.h"
 #include "mrsns/core/log.h"
+#include "module_trials.h"
 #include "simulated_room_process.h"
 #include "time_text.h"
 
@@ -133,7 +135,18 @@ TrialResult runPhantomTrial(const TrialOptions& options) {
     // Then the drill's tip: the scenario's operator pivots the drill by hand (freedrive) from 205 s.
     nlohmann::json drill = at_room;
     drill["duration_s"] = 90.0;
-    plan.push_back({"drill-calibration", drill, false, true});
+    const bool headset = room->endpoints().contains("hmd_port");
+    plan.push_back({"drill-calibration", drill, false, !headset});
+    if (headset) {
+      // The headset's wearer lines the tracked cube up with its hologram, view after view, when asked; then the
+      // patient's fiducials are shown through the new calibration (the overlay the scorer measures at the
+      // headset, Eq. 23).
+      nlohmann::json hmd = at_room;
+      hmd["source"] = "hmd";
+      hmd["hmd_port"] = room->endpoints()["hmd_port"];
+      hmd["duration_s"] = 120.0;
+      plan.push_back({"hmd-calibration", hmd, false, true});
+    }
   }
   // The real recording (PLUS's fCal data), compared with PLUS's own result.
   plan.push_back({"us-spatial-calibration", nlohmann::json::object(), true, false, room != nullptr});
@@ -142,10 +155,15 @@ TrialResult runPhantomTrial(const TrialOptions& options) {
     plan.push_back({"robot-calibration", {{"source", "simulated"}, {"seed", seed}}});
     plan.push_back({"registration", {{"source", "simulated"}, {"seed", seed}}});
   }
-  plan.push_back({"hmd-calibration",
-                  {{"seed", seed},
-                   {"cube_trials", options.hmd_cube_trials},
-                   {"checkerboard_poses", options.checkerboard_poses}}});
+  const bool live_hmd = std::any_of(plan.begin(), plan.end(), [](const PlannedStep& p) {
+    return p.name == "hmd-calibration";
+  });
+  if (!live_hmd) {
+    plan.push_back({"hmd-calibration",
+                    {{"seed", seed},
+                     {"cube_trials", options.hmd_cube_trials},
+                     {"checkerboard_poses", options.checkerboard_poses}}});
+  }
   plan.push_back({"navigation", navigation});
   plan.push_back({"robot-placement", {{"seed", seed}, {"placement_trials", options.placement_trials}}});
   const bool have_plus = findDataFile("plus/fCal_Test_Calibration_3NWires.igs.mha").has_value();
@@ -201,6 +219,16 @@ TrialResult runPhantomTrial(const TrialOptions& options) {
       result.ok = false;
     }
   }
+  // Paper 001 Fig. 7 and paper 000's protocol are module trials (simulated matches, their own noise model):
+  // beside a live HMD calibration they run here, not in the session's step.
+  nlohmann::json module_trials = nlohmann::json::object();
+  if (live_hmd) {
+    options.context.report(1.0, "module trials: paper 001 Fig. 7 and paper 000's checkerboard");
+    if (options.hmd_cube_trials > 0) module_trials["cube_trial"] = detail::cubeTrialFigures(options.hmd_cube_trials, seed);
+    if (options.checkerboard_poses > 0) {
+      module_trials["checkerboard_trial"] = detail::checkerboardTrialFigures(options.checkerboard_poses, seed);
+    }
+  }
   std::vector<std::string> images;
   std::string snapshots_skipped;
   if (options.write_snapshots) {
@@ -229,6 +257,7 @@ TrialResult runPhantomTrial(const TrialOptions& options) {
             {"plus_comparison", {{"session", plus_session ? "plus_comparison" : ""}, {"steps", plus_steps}}},
             {"paper", paperReferenceFigures()},
             {"simulated_room", room_report},
+            {"module_trials", module_trials},
             {"images", images},
             {"snapshots_skipped", snapshots_skipped},
             {"log", session.state()["log"]}};

@@ -394,4 +394,14 @@ ServerStats Server::stats() const {
   return s;
 }
 
+std::uint16_t freeLocalPort(const std::string& address) {
+  try {
+    asio::io_context io;
+    asio::ip::tcp::acceptor acceptor(io, asio::ip::tcp::endpoint(asio::ip::make_address(address), 0));
+    return acceptor.local_endpoint().port();
+  } catch (const std::exception& e) {
+    throw NetworkError("no free TCP port on " + address + ": " + e.what());
+  }
+}
+
 }  // namespace mrsns::igtlink

@@ -249,7 +249,49 @@ struct HmdConfirmation {
   std::string confirm;
 };
 
+/// Where the operator's eyes are for one view of the HMD calibration (paper 001 §II.C.2: front, left,
+/// right, ground), relative to the cube's hologram in the tracker frame. The depth misperception lies
+/// along the line from the eyes to the cube.
+struct CubeView {
+  std::string name;
+  Eigen::Vector3d eye_from_cube_mm = Eigen::Vector3d(0.0, 0.0, 500.0);
+};
+
+/// The operator of the HMD calibration: when the workstation asks (a prompt containing `prompt_contains`,
+/// naming a view), the operator takes the tracked cube from where it rests, lines it up with the cube's
+/// hologram as the headset displays it, holds it there with hand tremor, confirms on the headset after
+/// `confirm_after_s` and keeps holding for `hold_s` before putting it back. The hologram's mesh is in the
+/// cube marker's frame (the workstation's cube definition), so the marker goes where that frame is shown,
+/// missed by the operator's perception of a hologram: a depth error along the view (a per-operator bias and
+/// a per-match error), a lateral error and a small rotation. Defaults: hmd::CubeNoiseModel (paper 001's
+/// HoloLens 2 situation). Needs a tracked headset (`marker_tool`): what is displayed where is its truth.
+struct CubeOperatorSpec {
+  bool enabled = false;
+  std::string tool = "CubeToTracker";        ///< a scenario tool: where the cube rests when not held
+  std::string hologram = "CalibrationCube";  ///< the hologram's device name on the stream
+  std::string prompt_contains = "line up the cube";
+  std::string confirm = "aligned";  ///< the confirmation's text
+  double align_s = 3.0;             ///< from the prompt to the cube on its hologram
+  double confirm_after_s = 0.5;
+  double hold_s = 4.0;  ///< held this long after confirming
+  std::vector<CubeView> views;
+  double depth_bias_mm = 1.5;
+  double depth_error_mm = 1.0;
+  double lateral_error_mm = 0.5;  ///< per axis across the view
+  double rotation_deg = 0.3;      ///< per axis
+  double tremor_mm = 0.5;         ///< per axis, sinusoid amplitude
+  double tremor_min_hz = 8.0;
+  double tremor_max_hz = 12.0;
+  double tremor_rotation_deg = 0.1;
+  double drift_mm_per_s = 0.25;  ///< slow drift during a hold, random direction
+  double jerks_per_s = 1.0;      ///< sudden slips of the hand (Poisson)
+  double jerk_min_mm = 2.0;
+  double jerk_max_mm = 4.0;
+  double jerk_duration_s = 0.05;
+};
+
 struct HmdSpec {
+  CubeOperatorSpec cube;
   /// The headset's tracked marker (a scenario tool, e.g. HeadsetToTracker): the headset's world frame is
   /// anchored where the marker is when the room starts, at `world_to_marker` from it (the truth an HMD
   /// calibration estimates). Empty: the headset is not tracked.

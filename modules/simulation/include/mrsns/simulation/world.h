@@ -36,10 +36,17 @@ class World {
 
   [[nodiscard]] const Scenario& scenario() const { return scenario_; }
 
+  /// A tool in the operator's hand where the script does not say (the cube of the HMD calibration, lined up
+  /// with what the headset shows): its pose replaces the scripted one.
+  struct HeldTool {
+    std::string name;
+    Eigen::Isometry3d tracker_T_tool;
+  };
+
   /// True pose of every scripted tool at t (motion + the operator's hand), with
   /// visibility. `robot_base_T_flange` places the robot's marker (absent: no robot).
-  [[nodiscard]] std::vector<ToolTruth> tools(double t,
-                                             const std::optional<Eigen::Isometry3d>& robot_base_T_flange) const;
+  [[nodiscard]] std::vector<ToolTruth> tools(double t, const std::optional<Eigen::Isometry3d>& robot_base_T_flange,
+                                             const std::vector<HeldTool>& held = {}) const;
 
   /// The patient's reference marker, CT and N-wire phantom in the tracker frame at t (faults applied).
   [[nodiscard]] Eigen::Isometry3d trackerTReference(double t) const;

@@ -14,9 +14,18 @@
 // being Ok (tool lost, stale) it sends STATUS (code NotReady, "TrackingLost")
 // and no TRANSFORM for that model; when the chain is Ok again, STATUS Ok.
 //
-// Send-only: whatever a client sends is counted, logged (rate-limited) and
-// ignored. Nothing a client sends reaches the repository or the models.
+// The operator's prompt (setPrompt) goes to every ready client as a STRING
+// (device "Prompt", Reliable channel), and again to a client that connects
+// later, so a headset that reconnects shows what it is asked.
+//
+// Nothing a client sends reaches the repository or the models. One message is
+// let through, and only when the owner asked for it (on_confirmation): a
+// STRING on device "Confirm" of at most kMaxConfirmationBytes, the operator's
+// confirmation from the headset, handed to that callback and nowhere else
+// (the HMD calibration takes it; the stream never passes it to a robot).
+// Everything else is counted, logged (rate-limited) and ignored.
 #include <chrono>
+#include <functional>
 #include <limits>
 #include <map>
 #include <memory>
@@ -40,6 +49,9 @@ struct HologramModel {
   std::string frame;
 };
 
+/// The longest confirmation text accepted from a client.
+inline constexpr std::size_t kMaxConfirmationBytes = 256;
+
 struct HologramStreamOptions {
   /// The HMD's hologram (world) frame in the repository.
   std::string hologram_frame = "Hologram";
@@ -52,6 +64,9 @@ struct HologramStreamOptions {
   std::vector<std::string> forward_transforms;
   /// At most one log line per client per this many seconds about ignored messages.
   double client_log_interval_s = 1.0;
+  /// Called on the I/O thread for each operator confirmation (STRING "Confirm") a client sends, with its
+  /// text. Empty: confirmations are ignored like any other client message. Must not call the streamer.
+  std::function<void(igtlink::ClientId client, const std::string& text)> on_confirmation;
 };
 
 struct HologramStreamStats {
@@ -61,6 +76,8 @@ struct HologramStreamStats {
   std::uint64_t statuses_queued = 0;
   std::uint64_t clients_served = 0;
   std::uint64_t client_messages_ignored = 0;
+  std::uint64_t confirmations = 0;
+  std::uint64_t prompts_queued = 0;
 };
 
 class HologramStreamer {
@@ -84,6 +101,10 @@ class HologramStreamer {
   /// chain has no timestamp (all persistent). Never throws.
   void update(double fallback_timestamp) noexcept;
 
+  /// Shows `text` to the operator on every headset (now and on later connections). Empty clears it (an
+  /// empty STRING is sent). Throws InvalidArgumentError for more than 65535 bytes.
+  void setPrompt(const std::string& text);
+
   [[nodiscard]] HologramStreamStats stats() const;
   [[nodiscard]] std::size_t readyClients() const;
 
@@ -99,6 +120,7 @@ class HologramStreamer {
   void onDisconnect(igtlink::ClientId client) noexcept;
   void onClientMessage(igtlink::ClientId client, const igtlink::Message& message) noexcept;
   std::shared_ptr<const std::vector<std::uint8_t>> statusBytes(const Stream& stream, double timestamp) const;
+  std::shared_ptr<const std::vector<std::uint8_t>> promptBytes() const;  // mutex_ held
   void sendToReady(const std::shared_ptr<const std::vector<std::uint8_t>>& bytes, igtlink::Channel channel);
 
   igtlink::Server& server_;
@@ -108,6 +130,7 @@ class HologramStreamer {
 
   mutable std::mutex mutex_;  // guards everything below
   std::vector<Stream> streams_;
+  std::string prompt_;
   std::set<igtlink::ClientId> ready_;
   std::map<igtlink::ClientId, std::chrono::steady_clock::time_point> last_log_;
   HologramStreamStats stats_;

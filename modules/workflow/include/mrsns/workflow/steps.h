@@ -4,6 +4,7 @@
 // `params`), writes its outputs into the session folder, and records its
 // figures in session.json. Long steps report progress and stop when asked.
 #include <atomic>
+#include <cstdint>
 #include <filesystem>
 #include <functional>
 #include <nlohmann/json.hpp>
@@ -26,6 +27,9 @@ struct StepContext {
   std::function<void(double fraction, const std::string& message)> progress;
   /// When set and true, the step stops at its next check and returns ok=false.
   const std::atomic<bool>* cancel = nullptr;
+  /// The operator's confirmations from the keyboard or a foot pedal (the GUI's Confirm button, Space): each
+  /// increment is one confirmation. A step waiting for the operator (the HMD calibration's holds) counts them.
+  const std::atomic<std::uint64_t>* confirmations = nullptr;
 
   void report(double fraction, const std::string& message) const {
     if (progress) progress(fraction, message);
