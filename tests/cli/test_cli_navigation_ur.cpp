@@ -50,6 +50,18 @@ TEST(CliNavigationUr, NobodyListeningIsExitOneWithOneLineNamingHostAndPort) {
   EXPECT_NE(r.err.find("UR controller"), std::string::npos) << r.err;
 }
 
+TEST(CliNavigationUr, ASimulatedTrackerNeverDrivesAControllerOnTheNetwork) {
+  const auto dir = scratchDirectory("navur_cli") / "net";
+  ASSERT_EQ(runCli({"session", "create", dir.string()}).exit_code, 0);
+  ASSERT_EQ(runCli({"session", "run", dir.string(), "robot-calibration"}).exit_code, 0);
+  // 192.0.2.1 (TEST-NET-1) stands for a real arm on the lab's network: refused before any connection.
+  const auto r = runCli({"session", "run", dir.string(), "navigation", "--robot", "ur", "--robot-host", "192.0.2.1",
+                         "--param", "duration_s=1"});
+  EXPECT_EQ(r.exit_code, 1) << r.err;
+  EXPECT_EQ(lines(r.err), 1u) << r.err;
+  EXPECT_NE(r.err.find("a simulated tracker never drives a real controller"), std::string::npos) << r.err;
+}
+
 // `mrsns-cli robot-sim --port-offset N` in the background, killed (by its pid) when the test ends.
 class RobotSimProcess {
  public:

@@ -2,10 +2,11 @@
 // mrsns-sim from the GUI, see the SIMULATED banner, connect to it as to a
 // PlusServer, find every tool and the step marked simulated, calibrate the
 // stylus, register the patient, register the N-wire phantom and calibrate the
-// probe on a sweep over it, calibrate the robot and the drill live from the
-// Workflow menu, stop it.
+// probe on a sweep over it, calibrate the robot, the drill and the headset live
+// from the Workflow menu, stop it.
 #include <QAction>
 #include <QLabel>
+#include <QPushButton>
 #include <QTest>
 #include <fstream>
 
@@ -140,6 +141,27 @@ TEST_F(SimulatedRoomTest, StartConnectAndStopFromTheDevicesMenu) {
   EXPECT_TRUE(drill["figures"]["simulated"].get<bool>());
   EXPECT_NEAR(drill["figures"]["tip_length_mm"].get<double>(), 150.0 - 40.0, 2.0)
       << "the scenario's drill tip, 150 mm along the flange, seen from its marker 40 mm out";
+
+  // The headset: the room's wearer lines the tracked cube up with its hologram in each of four views and
+  // confirms on the headset; then the patient's fiducials are shown through the new calibration.
+  const auto hmd_params = window->deviceParams("hmd-calibration");
+  EXPECT_EQ(hmd_params.value("source", ""), "hmd");
+  EXPECT_EQ(hmd_params.value("hmd_port", 0), window->simulatedRoom()->endpoints().hmd_port);
+  window->findChild<QAction*>("actionStep_hmd-calibration")->trigger();
+  auto* confirm = window->findChild<QPushButton*>("taskConfirm");
+  ASSERT_NE(confirm, nullptr);
+  EXPECT_TRUE(confirm->isVisible()) << "the operator can confirm from the workstation too";
+  ASSERT_TRUE(mrsns::test::waitUntil([&] { return !window->taskRunning(); }, 150000));
+  EXPECT_FALSE(confirm->isVisible());
+  const auto after_hmd = window->sessionState();
+  const auto& hmd = after_hmd["steps"]["hmd-calibration"];
+  ASSERT_EQ(hmd.value("status", ""), "ok") << hmd.dump() << messages();
+  EXPECT_TRUE(hmd["figures"]["simulated"].get<bool>());
+  ASSERT_EQ(hmd["figures"]["views"].size(), 4U);
+  for (const auto& v : hmd["figures"]["views"]) EXPECT_EQ(v["confirmed_by"], "headset");
+  EXPECT_EQ(hmd["figures"]["acquisition"]["verification_model"], "CTFiducials") << "the registration's fiducials";
+  EXPECT_TRUE(window->saveScreenshot(
+      QString::fromStdString((mrsns::test::guiArtifactDir() / "main_window_simulated_hmd_calibration.png").string())));
 
   EXPECT_TRUE(window->deviceParams("registration").empty()) << "the step itself defaults to the PlusServer";
 

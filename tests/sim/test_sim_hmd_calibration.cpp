@@ -29,7 +29,7 @@ using Json = nlohmann::json;
 /// The default room's headset and cube only (no patient, robot, probe or phantom), its headset pointed at
 /// `hmd_port`, with `faults`.
 std::filesystem::path writeHmdScenario(const std::filesystem::path& dir, int seed, std::uint16_t hmd_port,
-                                       const Json& faults) {
+                                       const Json& faults, const Json& cube = Json::object()) {
   Json s = Json::parse(slurpFile(defaultScenario()));
   s["name"] = "hmd calibration";
   s["seed"] = seed;
@@ -44,6 +44,7 @@ std::filesystem::path writeHmdScenario(const std::filesystem::path& dir, int see
   EXPECT_EQ(tools.size(), 2U) << "the default scenario's cube and headset";
   s["tools"] = tools;
   s["hmd"]["port"] = hmd_port;
+  for (const auto& [key, value] : cube.items()) s["hmd"]["cube"][key] = value;
   const auto file = dir / "hmd.json";
   std::ofstream(file) << s.dump(2);
   return file;
@@ -128,11 +129,14 @@ TEST(SimHmdCalibration, TheCubeLinedUpInFourViewsCalibratesTheHeadsetOverTwoSeed
     const auto& f = run.figures;
     EXPECT_TRUE(f["simulated"].get<bool>());
     ASSERT_EQ(f["views"].size(), 4U);
+    int dropped = 0;
     for (const auto& v : f["views"]) {
       EXPECT_EQ(v["confirmed_by"], "headset") << "the operator confirmed on the headset";
       EXPECT_GT(v["samples"].get<int>(), 60) << "2 s of a 60 Hz tracker";
-      EXPECT_GT(v["tremor_dropped_samples"].get<int>(), 0) << "the hand's slips are left out (Eq. 14)";
+      dropped += v["tremor_dropped_samples"].get<int>();
     }
+    // Slips come about once a second: over four 2 s holds (no slip at all: e^-8) the filter drops some (Eq. 14).
+    EXPECT_GT(dropped, 0);
     EXPECT_EQ(f["acquisition"]["headset_drops"], 0);
     // Scored from outside. Error budget at the cube's hologram from the noise model: the operator's depth bias
     // (1.5 mm along each view) averages over the four views' directions to 0.69 x 1.5 = 1.04 mm; the per-match
@@ -159,11 +163,12 @@ TEST(SimHmdCalibration, TheCubeLinedUpInFourViewsCalibratesTheHeadsetOverTwoSeed
 }
 
 TEST(SimHmdCalibration, AnOccludedHoldIsAskedAgainAndAHeadsetThatLeftIsWaitedFor) {
-  // The cube's marker is hidden for the first view's hold; the headset drops off for 3 s later on.
+  // The cube's marker is hidden for the first 14 s (the first view's hold, and maybe its second try, however
+  // late the step starts on a loaded machine); the headset drops off for 3 s at 28 s, a view or two later.
   const auto run = runHmdCalibration(
       "sim-hmd-calibration-faults", 3,
-      Json::parse(R"([{"kind": "occlusion", "tool": "CubeToTracker", "at_s": 0.0, "duration_s": 10.0},
-                      {"kind": "hmd_disconnect", "at_s": 16.0, "duration_s": 3.0}])"));
+      Json::parse(R"([{"kind": "occlusion", "tool": "CubeToTracker", "at_s": 0.0, "duration_s": 14.0},
+                      {"kind": "hmd_disconnect", "at_s": 28.0, "duration_s": 3.0}])"));
   ASSERT_EQ(run.step.exit_code, 0) << run.step.err << run.step.out;
   const auto& a = run.figures["acquisition"];
   ASSERT_FALSE(a["rejected_holds"].empty()) << a.dump();
@@ -176,9 +181,42 @@ TEST(SimHmdCalibration, AnOccludedHoldIsAskedAgainAndAHeadsetThatLeftIsWaitedFor
   EXPECT_TRUE(dropped) << run.events.dump();
 }
 
+TEST(SimHmdCalibration, TheOperatorConfirmsWithAPedalAtTheWorkstation) {
+  // The operator confirms with the foot pedal (a line on the CLI's stdin), not on the headset: the cube is held
+  // long enough (10 s) for a press every 6 s to find it on the hologram. A press that lands while the cube is
+  // still moving gives a hold that moved too much, which is refused and asked again.
+  const auto dir = scratchDirectory("sim-hmd-calibration-pedal");
+  const auto session = dir / "session";
+  const auto truth = dir / "truth.json";
+  const auto hmd_port = freePort();
+  SimProcess sim({"run", "--scenario",
+                  writeHmdScenario(dir, 5, hmd_port, Json::array(), {{"confirm_on_headset", false}, {"hold_s", 10.0}})
+                      .string(),
+                  "--truth", truth.string(), "--ready-file", (dir / "ready.json").string(), "--any-ports", "--json"});
+  const auto ready = sim.waitReady(dir / "ready.json");
+  ASSERT_FALSE(ready.is_null()) << sim.wait().err;
+  ASSERT_EQ(runCli({"session", "create", session.string()}).exit_code, 0);
+  const std::string command = "for i in $(seq 14); do sleep 6; echo; done | '" + cliBinary().string() +
+                              "' session run '" + session.string() +
+                              "' hmd-calibration --confirm-on-enter --param source=hmd --param port=" +
+                              std::to_string(ready["plus_port"].get<int>()) +
+                              " --param hmd_port=" + std::to_string(hmd_port) + " --param duration_s=90 --json";
+  const auto step = runProgram("/bin/bash", {"-c", command});
+  sim.terminate();
+  EXPECT_EQ(sim.wait(30.0).exit_code, 0);
+  ASSERT_EQ(step.exit_code, 0) << step.err << step.out;
+  const auto figures = Json::parse(step.out)["figures"];
+  ASSERT_EQ(figures["views"].size(), 4U);
+  for (const auto& v : figures["views"]) EXPECT_EQ(v["confirmed_by"], "key") << "the pedal, not the headset";
+  const auto score = runSim({"score", session.string(), truth.string(), "--json"});
+  ASSERT_EQ(score.exit_code, 0) << score.err;
+  const auto h = Json::parse(score.out)["scored"]["hmd_calibration"];
+  EXPECT_LT(h["error_at_cube_hologram_mm"].get<double>(), 2.9) << h.dump();
+}
+
 TEST(SimHmdCalibration, AHeadsetThatDoesNotComeBackFailsTheStepAndKeepsWhatWasRecorded) {
   const auto run = runHmdCalibration("sim-hmd-calibration-gone", 4,
-                                     Json::parse(R"([{"kind": "hmd_disconnect", "at_s": 11.0, "duration_s": 600.0}])"),
+                                     Json::parse(R"([{"kind": "hmd_disconnect", "at_s": 16.0, "duration_s": 600.0}])"),
                                      {"--param", "hmd_wait_s=5"});
   ASSERT_EQ(run.step.exit_code, 1) << run.step.out;
   EXPECT_NE(run.step.err.find("the headset left and did not come back"), std::string::npos) << run.step.err;

@@ -3,6 +3,7 @@
 #include <array>
 #include <atomic>
 #include <csignal>
+#include <thread>
 #include <iostream>
 #include <optional>
 #include <sstream>
@@ -205,6 +206,7 @@ void registerSessionVerbs(CLI::App& app, GlobalOptions& options, VerbList& verbs
     std::string step;
     std::vector<std::string> params;
     bool progress = false;
+    bool confirm_on_enter = false;
     std::string robot;
     std::string dropout;
     std::string robot_host;
@@ -216,6 +218,9 @@ void registerSessionVerbs(CLI::App& app, GlobalOptions& options, VerbList& verbs
   run->add_option("STEP", args->step, "step name, e.g. registration")->required();
   run->add_option("--param", args->params, "step parameter NAME=VALUE (repeatable)");
   run->add_flag("--progress", args->progress, "print progress lines on stderr");
+  run->add_flag("--confirm-on-enter", args->confirm_on_enter,
+                "each line on stdin (Enter, or a foot pedal that sends it) confirms what the step asks, e.g. the "
+                "HMD calibration's cube held on its hologram");
   run->add_option("--robot", args->robot,
                   "navigation: the robot the loop drives (auto: simulated when the session has a plan)")
       ->check(CLI::IsMember({"auto", "none", "simulated", "ur"}));
@@ -264,6 +269,15 @@ void registerSessionVerbs(CLI::App& app, GlobalOptions& options, VerbList& verbs
     // (an arm is brought to rest) and keeps what it recorded, instead of the process dying mid-motion.
     g_cancel_run = false;
     context.cancel = &g_cancel_run;
+    if (args->confirm_on_enter) {
+      // The reader blocks on stdin until the process ends: detached, it never holds the step up.
+      static std::atomic<std::uint64_t> confirmations{0};
+      context.confirmations = &confirmations;
+      std::thread([] {
+        std::string line;
+        while (std::getline(std::cin, line)) confirmations.fetch_add(1);
+      }).detach();
+    }
     std::signal(SIGINT, onStopSignal);
     std::signal(SIGTERM, onStopSignal);
     const auto result = workflow::runStep(session, args->step, params, context);

@@ -324,7 +324,9 @@ void OutputPanel::headlineFromFigures(const std::string& step, const nlohmann::j
   } else if (step == "robot-calibration") {
     showMm(QStringLiteral("robot"), {"fre_rms_mm"}, {"rms", "error"});
   } else if (step == "hmd-calibration") {
-    showMm(QStringLiteral("hmd"), {"tre_at_patient_mm", "rigid_rms_mm"}, {"rms", "error"});
+    // With the headset: how well the views agree at the cube (no truth at the workstation); simulated: the error.
+    showMm(QStringLiteral("hmd"), {"view_spread.at_cube_rms_mm", "tre_at_patient_mm", "rigid_rms_mm"},
+           {"rms", "error"});
   } else if (step == "robot-placement") {
     showMm(QStringLiteral("placement"), {"target_error_mm.mean"}, {"target_error", "error"});
   }

@@ -78,7 +78,8 @@ bool SimulatedRoom::start(const QString& scenario, QString& why) {
   // runs on the usual port (18945) for a real headset is never met by the simulated one.
   QFile scenario_file(scenario);
   if (scenario_file.open(QIODevice::ReadOnly)) {
-    const QJsonObject hmd = QJsonDocument::fromJson(scenario_file.readAll()).object().value(QStringLiteral("hmd")).toObject();
+    const QJsonObject hmd =
+        QJsonDocument::fromJson(scenario_file.readAll()).object().value(QStringLiteral("hmd")).toObject();
     if (!hmd.isEmpty() && hmd.value(QStringLiteral("enabled")).toBool(true)) {
       try {
         arguments << QStringLiteral("--hmd-port") << QString::number(igtlink::freeLocalPort());

@@ -48,6 +48,10 @@ Json endpointsJson(const simulation::OperatingRoomEndpoints& e, const simulation
   Json j{{"host", e.host}, {"plus_port", e.plus_port}, {"pid", static_cast<long>(::getpid())}};
   // The headset is a client: where it looks for the workstation's hologram stream.
   if (scenario.hmd.enabled) j["hmd_port"] = scenario.hmd.port;
+  // Someone in the room who lines the cube up with its hologram when the workstation asks.
+  if (scenario.hmd.enabled && scenario.hmd.cube.enabled && !scenario.hmd.marker_tool.empty()) {
+    j["hmd_cube_operator"] = true;
+  }
   if (e.robot) {
     j["robot"] = {{"rtde", e.rtde_port},
                   {"dashboard", e.dashboard_port},

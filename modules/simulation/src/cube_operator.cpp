@@ -33,8 +33,13 @@ void CubeOperator::onPrompt(double t, const std::string& prompt) {
   Match m;
   m.view = view;
   m.prompt_t = t;
-  // A match under way is abandoned where the cube is: the new one starts from there.
-  if (match_ && match_->aligned) m.from = hand(*match_, t);
+  // A match under way is abandoned where the cube is, and so is the way back to its rest: the new one starts
+  // from there.
+  if (match_ && match_->aligned) {
+    m.from = hand(*match_, t);
+  } else if (release_from_ && last_rest_) {
+    m.from = interpolatePose(*release_from_, *last_rest_, minimumJerk((t - release_t_) / kPutBackS));
+  }
   match_ = m;
   release_from_.reset();
   matches_.push_back({spec_.views[view].name, t, std::numeric_limits<double>::quiet_NaN(), {}, 0.0, false});
@@ -100,6 +105,7 @@ Eigen::Isometry3d CubeOperator::hand(const Match& m, double t) const {
 std::optional<Eigen::Isometry3d> CubeOperator::pose(double t, const Eigen::Isometry3d& tracker_T_rest,
                                                     const std::optional<Eigen::Isometry3d>& tracker_T_hologram) {
   if (!spec_.enabled) return std::nullopt;
+  last_rest_ = tracker_T_rest;
   if (match_) {
     Match& m = *match_;
     if (!m.aligned) {
@@ -129,6 +135,7 @@ std::optional<std::string> CubeOperator::confirmationDue(double t) {
   }
   match_->confirmed = true;
   matches_.back().confirmed = true;
+  if (!spec_.confirm_on_headset) return std::nullopt;  // the pedal at the workstation, pressed from outside
   return spec_.confirm;
 }
 

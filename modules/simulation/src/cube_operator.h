@@ -64,6 +64,7 @@ class CubeOperator {
   std::optional<Match> match_;
   std::optional<Eigen::Isometry3d> release_from_;  ///< putting the cube back from here
   double release_t_ = 0.0;
+  std::optional<Eigen::Isometry3d> last_rest_;  ///< where the cube rests, as last told
   std::size_t next_view_ = 0;
   std::vector<MatchTruth> matches_;
 };

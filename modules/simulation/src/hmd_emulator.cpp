@@ -265,6 +265,15 @@ std::vector<std::string> HmdEmulator::prompts() const {
   return {impl_->prompts.begin(), impl_->prompts.end()};
 }
 
+std::vector<std::string> HmdEmulator::promptsSince(std::uint64_t& seen) const {
+  std::lock_guard lock(impl_->mutex);
+  const std::uint64_t total = impl_->counters.prompts;
+  const auto fresh =
+      static_cast<std::size_t>(std::min<std::uint64_t>(total - std::min(seen, total), impl_->prompts.size()));
+  seen = total;
+  return {impl_->prompts.end() - static_cast<std::ptrdiff_t>(fresh), impl_->prompts.end()};
+}
+
 bool HmdEmulator::confirm(const std::string& what) {
   if (what.empty() || what.size() > 65535) {
     throw InvalidArgumentError("HMD emulator: a confirmation must be 1 to 65535 bytes (e.g. \"cube-aligned\")");

@@ -303,20 +303,14 @@ struct OperatingRoom::Impl {
 
   void operateHeadset(double t) {
     const auto& spec = scenario.hmd;
-    const auto received = hmd->stats().prompts;
-    if (received > prompts_seen) {
-      const auto prompts = hmd->prompts();
-      const auto fresh = std::min<std::uint64_t>(received - prompts_seen, prompts.size());
-      for (auto i = prompts.size() - fresh; i < prompts.size(); ++i) {
-        event(t, "hmd prompt: " + prompts[i], false);
-        if (cube_operator) cube_operator->onPrompt(t, prompts[i]);
-        for (const auto& r : spec.responses) {
-          if (prompts[i].find(r.prompt_contains) != std::string::npos) {
-            pending_confirmations.emplace_back(t + r.after_s, r.confirm);
-          }
+    for (const auto& prompt : hmd->promptsSince(prompts_seen)) {
+      event(t, "hmd prompt: " + prompt, false);
+      if (cube_operator) cube_operator->onPrompt(t, prompt);
+      for (const auto& r : spec.responses) {
+        if (prompt.find(r.prompt_contains) != std::string::npos) {
+          pending_confirmations.emplace_back(t + r.after_s, r.confirm);
         }
       }
-      prompts_seen = received;
     }
     if (cube_operator) {
       if (auto c = cube_operator->confirmationDue(t)) pending_confirmations.emplace_back(t, *c);

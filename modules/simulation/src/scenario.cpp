@@ -204,8 +204,9 @@ std::filesystem::path filePath(const Node& n, const char* key, const std::filesy
 }
 
 CubeOperatorSpec readCubeOperator(const Node& n) {
-  n.allow({"enabled", "tool", "hologram", "prompt_contains", "confirm", "align_s", "confirm_after_s", "hold_s", "views",
-           "depth_bias_mm", "depth_error_mm", "lateral_error_mm", "rotation_deg", "tremor_mm", "tremor_hz",
+  n.allow({"enabled", "tool", "hologram", "prompt_contains", "confirm", "confirm_on_headset", "align_s",
+           "confirm_after_s", "hold_s", "views", "depth_bias_mm", "depth_error_mm", "lateral_error_mm",
+           "rotation_deg", "tremor_mm", "tremor_hz",
            "tremor_rotation_deg", "drift_mm_per_s", "jerks_per_s", "jerk_mm", "jerk_duration_s"});
   CubeOperatorSpec c;
   c.enabled = n.boolean("enabled", true);
@@ -213,6 +214,7 @@ CubeOperatorSpec readCubeOperator(const Node& n) {
   c.hologram = n.text("hologram", c.hologram);
   c.prompt_contains = n.text("prompt_contains", c.prompt_contains);
   c.confirm = n.text("confirm", c.confirm);
+  c.confirm_on_headset = n.boolean("confirm_on_headset", c.confirm_on_headset);
   if (c.hologram.empty() || c.prompt_contains.empty() || c.confirm.empty()) {
     n.fail("needs a non-empty hologram, prompt_contains and confirm");
   }

@@ -85,7 +85,8 @@ Eigen::Isometry3d compactPose(const Json& p) {
 void scoreHmdCalibration(const Json& session, const Json& truth, Json& scored, Json& not_scored) {
   const Json* est = recordedTransform(session, "hmd-calibration", "HologramToTracker");
   if (est == nullptr) {
-    not_scored.push_back("hmd-calibration (not run, failed, without HologramToTracker, or not acquired from mrsns-sim)");
+    not_scored.push_back(
+        "hmd-calibration (not run, failed, without HologramToTracker, or not acquired from mrsns-sim)");
     return;
   }
   if (!truth.contains("HeadsetWorldToTracker")) {
@@ -97,9 +98,9 @@ void scoreHmdCalibration(const Json& session, const Json& truth, Json& scored, J
   const Eigen::Isometry3d t(matrix(truth["HeadsetWorldToTracker"], "truth HeadsetWorldToTracker"));
   Json h = {{"definition",
              "HologramToTracker against the headset's true world frame: translation and rotation error, the "
-             "error of the map where the cube's hologram was shown, and at the patient's true fiducials (where the estimate puts a hologram meant "
-             "for each). overlay_at_headset: paper 001 Eq. 23, the RMS over the patient's fiducials of the "
-             "distance between where the headset displayed them (the workstation's verification overlay, "
+             "error of the map where the cube's hologram was shown, and at the patient's true fiducials (where "
+             "the headset shows a hologram meant for each). overlay_at_headset: paper 001 Eq. 23, the RMS over "
+             "the patient's fiducials of the distance between where the headset displayed them (the workstation's verification overlay, "
              "through the whole chain: tracking, registration, HMD calibration, headset jitter) and where they "
              "were, per displayed frame"},
             {"translation_error_mm", (e.translation() - t.translation()).norm()},
@@ -125,7 +126,9 @@ void scoreHmdCalibration(const Json& session, const Json& truth, Json& scored, J
     if (calibration_errors.empty()) {
       for (const auto& p : fiducials_ct) {
         const Eigen::Vector3d x = tracker_T_ct * p;
-        calibration_errors.push_back((e * (t.inverse() * x) - x).norm());
+        // The workstation puts a hologram meant for x at e^-1 x in the headset's world; the headset shows it at
+        // t e^-1 x.
+        calibration_errors.push_back((t * (e.inverse() * x) - x).norm());
       }
     }
     if (model.empty() || !d.contains("tracker_T_model")) continue;

@@ -148,6 +148,15 @@ CubeHoldsSolution solveCubeHolds(const std::vector<TrackedFrame>& frames, const 
   }
   const auto mv = hmd::averageViews(per_view);
   out.tracker_T_hologram = mv.tracker_T_hololens;
+  std::vector<Eigen::Vector3d> centres;
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (std::size_t i = 0; i < holds.size(); ++i) {
+    centres.push_back(per_view[i] * (holds[i].hologram_T_marker * cube.marker_T_cube.translation()));
+    mean += centres.back() / static_cast<double>(holds.size());
+  }
+  double sum = 0.0;
+  for (const auto& c : centres) sum += (c - mean).squaredNorm();
+  out.at_cube_rms_mm = std::sqrt(sum / static_cast<double>(centres.size()));
   out.max_pairwise_rotation_deg = mv.max_pairwise_rotation_rad * 180.0 / M_PI;
   out.max_pairwise_translation_mm = mv.max_pairwise_translation_mm;
   return out;

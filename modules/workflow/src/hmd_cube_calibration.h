@@ -77,6 +77,9 @@ struct CubeHoldsSolution {
   std::vector<CubeViewSolution> views;
   double max_pairwise_rotation_deg = 0.0;
   double max_pairwise_translation_mm = 0.0;
+  /// Where each view's calibration puts the cube's centre as the hologram showed it: the RMS distance from
+  /// their mean (mm). How well the views agree where it matters, not 500 mm away at the hologram's origin.
+  double at_cube_rms_mm = 0.0;
 };
 CubeHoldsSolution solveCubeHolds(const std::vector<TrackedFrame>& frames, const std::vector<CubeHold>& holds,
                                  const CubeDefinition& cube, const CubeHoldsOptions& options);

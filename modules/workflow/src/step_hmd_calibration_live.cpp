@@ -5,10 +5,13 @@
 // fiducial and the views averaged. Afterwards the patient's fiducials are shown
 // on the headset through the new calibration, so the overlay can be checked
 // (and, in mrsns-sim, scored at the headset: Eq. 23).
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
 #include <fstream>
+#include <functional>
+#include <optional>
 #include <sstream>
 
 #include "hmd_cube_calibration.h"
@@ -104,7 +107,11 @@ std::optional<RegisteredPatient> registeredPatient(const Session& session) {
   Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
   t.matrix() = matrixFromJson(f["transforms"]["CTToPatient"], "registration.CTToPatient");
   r.patient_T_ct = t;
-  if (f.contains("reference") && f["reference"].is_string()) r.reference = f["reference"].get<std::string>();
+  // The marker the registration registered to (its `reference` parameter, Patient by default).
+  if (entry.contains("params") && entry["params"].is_object() && entry["params"].contains("reference") &&
+      entry["params"]["reference"].is_string()) {
+    r.reference = entry["params"]["reference"].get<std::string>();
+  }
   for (const auto& fid : f["landmarks"].value("fiducials", Json::array())) {
     if (!fid.contains("ct_mm") || !fid["ct_mm"].is_array() || fid["ct_mm"].size() != 3) continue;
     r.fiducials_ct.emplace_back(fid["ct_mm"][0].get<double>(), fid["ct_mm"][1].get<double>(),
@@ -141,6 +148,7 @@ class CubeHoldAcquisition {
     double hmd_wait_s = 120.0;
     double verify_s = 5.0;
     double max_spread_mm = 3.0;
+    double max_view_disagreement_mm = 15.0;
     Eigen::Isometry3d hologram_T_marker = Eigen::Isometry3d::Identity();
     std::string endpoint;  // address:port of the hologram stream, for messages
   };
@@ -165,11 +173,15 @@ class CubeHoldAcquisition {
   /// The monitor of the live recording: true when done (or failed: see failure()).
   bool step(const std::vector<TrackedFrame>& frames, std::string& message) {
     const double now = frames.back().timestamp;
-    if (patient_ && frames.back().transforms.count(patient_->reference + "ToTracker") != 0) {
-      const auto& t = frames.back().transforms.at(patient_->reference + "ToTracker");
-      if (t.status == TransformStatus::Ok && isRigid(t.matrix, 1e-3)) {
-        repository_.setTransform(patient_->reference, "Tracker", orthonormalize(t.matrix), TransformStatus::Ok, now);
-      } else {
+    if (patient_) {
+      const auto it = frames.back().transforms.find(patient_->reference + "ToTracker");
+      if (it != frames.back().transforms.end() && it->second.status == TransformStatus::Ok &&
+          isRigid(it->second.matrix, 1e-3)) {
+        repository_.setTransform(patient_->reference, "Tracker", orthonormalize(it->second.matrix),
+                                 TransformStatus::Ok, now);
+        reference_seen_ = true;
+      } else if (reference_seen_) {
+        // Not seen now: the overlay is hidden until it is (an edge never set stays Missing by itself).
         repository_.setStatus(patient_->reference, "Tracker", TransformStatus::Invalid, now);
       }
     }
@@ -256,6 +268,8 @@ class CubeHoldAcquisition {
     // The operator cannot see the hologram: a hold under way is not trusted, the view is asked again.
     ++drops_;
     phase_ = Phase::WaitHeadset;
+    // What a headset that comes back sees first, until the view is asked again.
+    streamer_.setPrompt("HMD calibration paused: the headset was away");
     waiting_since_ = std::chrono::steady_clock::now();
     message = "the headset left the hologram stream: waiting for it to come back (view " + viewLabel() + " again)";
     return false;
@@ -264,28 +278,94 @@ class CubeHoldAcquisition {
   void judgeHold(const std::vector<TrackedFrame>& frames) {
     const auto samples = holdSamples(frames, hold_, options_.transform);
     std::string why;
-    if (samples.tracker_T_marker.size() <= static_cast<std::size_t>(options_.k_close) ||
-        2 * samples.untracked > samples.frames) {
+    if (samples.frames == 0) {
+      why = "no tracking arrived during the hold";
+    } else if (samples.tracker_T_marker.size() <= static_cast<std::size_t>(options_.k_close) ||
+               2 * samples.untracked > samples.frames) {
       why = "the cube was not tracked in " + std::to_string(samples.untracked) + " of " +
             std::to_string(samples.frames) + " samples: keep its marker in the camera's view";
     } else {
-      const auto solution = solveCubeHold(samples, hold_, cube_, options_);
-      if (solution.largest_spread_mm > s_.max_spread_mm) {
-        why = "the cube moved during the hold (spread " + formatFixed(solution.largest_spread_mm, 1) + " mm, at most " +
-              formatFixed(s_.max_spread_mm, 1) + "): hold it still";
+      try {
+        const auto solution = solveCubeHold(samples, hold_, cube_, options_);
+        if (solution.largest_spread_mm > s_.max_spread_mm) {
+          why = "the cube moved during the hold (spread " + formatFixed(solution.largest_spread_mm, 1) +
+                " mm, at most " + formatFixed(s_.max_spread_mm, 1) + "): hold it still";
+        }
+      } catch (const Error& e) {
+        why = std::string("its samples give no calibration (") + e.what() + ")";
       }
     }
     if (!why.empty()) {
-      rejected_.push_back("view " + s_.views[view_] + ": " + why);
-      streamer_.setPrompt("Again: " + why);
-      askForViewAfter(why);
+      reject(why);
       return;
     }
-    holds_.push_back(hold_);
-    if (++view_ < s_.views.size()) {
+    if (retry_single_) {
+      // The view asked again after it disagreed: back in its place, then the views are judged again.
+      holds_.insert(holds_.begin() + static_cast<std::ptrdiff_t>(view_), hold_);
+      onHoldsChanged_();
+      retry_single_ = false;
+      view_ = s_.views.size();
+    } else {
+      holds_.push_back(hold_);
+      onHoldsChanged_();
+      ++view_;
+    }
+    if (view_ < s_.views.size()) {
       askForView();
       return;
     }
+    view_ = s_.views.size() - 1;
+    // A view far from the others was not matched with the hologram (the cube left lying somewhere, the wrong
+    // hologram): it is asked again.
+    if (const auto outlier = disagreeingView(frames)) {
+      view_ = *outlier;
+      holds_.erase(holds_.begin() + static_cast<std::ptrdiff_t>(view_));
+      onHoldsChanged_();
+      // Only that view is asked again; the others are kept.
+      reject("it puts the cube's hologram more than " + formatFixed(s_.max_view_disagreement_mm, 0) +
+             " mm from where the other views put it");
+      retry_single_ = true;
+      return;
+    }
+    finish(frames);
+  }
+
+  // The view whose calibration puts the cube's hologram farthest from the others' median, when that is more
+  // than max_view_disagreement_mm.
+  std::optional<std::size_t> disagreeingView(const std::vector<TrackedFrame>& frames) const {
+    if (holds_.size() < 3) return std::nullopt;
+    std::vector<Eigen::Vector3d> centre;
+    const Eigen::Vector3d c = s_.hologram_T_marker * cube_.marker_T_cube.translation();
+    for (const auto& hold : holds_) {
+      try {
+        centre.push_back(solveCubeHold(holdSamples(frames, hold, options_.transform), hold, cube_, options_)
+                             .tracker_T_hologram *
+                         c);
+      } catch (const Error&) {
+        return std::nullopt;
+      }
+    }
+    Eigen::Vector3d median;
+    for (int k = 0; k < 3; ++k) {
+      std::vector<double> v;
+      for (const auto& p : centre) v.push_back(p[k]);
+      std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+      median[k] = v[v.size() / 2];
+    }
+    std::size_t worst = 0;
+    for (std::size_t i = 1; i < centre.size(); ++i) {
+      if ((centre[i] - median).norm() > (centre[worst] - median).norm()) worst = i;
+    }
+    if ((centre[worst] - median).norm() <= s_.max_view_disagreement_mm) return std::nullopt;
+    return worst;
+  }
+
+  void reject(const std::string& why) {
+    rejected_.push_back("view " + s_.views[view_] + ": " + why);
+    askForViewAfter(why);
+  }
+
+  void finish(const std::vector<TrackedFrame>& frames) {
     const auto solution = solveCubeHolds(frames, holds_, cube_, options_);
     calibration_ = solution.tracker_T_hologram;
     repository_.setTransform("Hologram", "Tracker", solution.tracker_T_hologram, TransformStatus::Ok);
@@ -313,7 +393,7 @@ class CubeHoldAcquisition {
     const std::string done = std::to_string(holds_.size()) + " of " + std::to_string(s_.views.size()) + " views";
     switch (phase_) {
       case Phase::Aligning:
-        return "view " + viewLabel() + ": line up the cube with its hologram and confirm (headset, Space or pedal); " +
+        return "view " + viewLabel() + ": line up the cube with its hologram and confirm (headset, F8 or the pedal); " +
                done;
       case Phase::Holding:
         return "view " + viewLabel() + ": hold the cube still (" + formatFixed(s_.hold_s, 0) + " s); " + done;
@@ -344,6 +424,13 @@ class CubeHoldAcquisition {
   std::optional<Eigen::Isometry3d> calibration_;
   bool verified_ = false;
   double verify_until_ = 0.0;
+  bool reference_seen_ = false;
+  bool retry_single_ = false;
+  std::function<void()> onHoldsChanged_ = [] {};
+
+ public:
+  /// Called whenever the accepted holds change (to keep them on disk as they are acquired).
+  void onHoldsChanged(std::function<void()> f) { onHoldsChanged_ = std::move(f); }
 };
 
 }  // namespace
@@ -352,7 +439,7 @@ StepResult runAcquiredHmdCalibration(Session& session, const Json& params, const
   const Params p(kStep, params,
                  {"source", "host", "port", "recording", "holds", "duration_s", "connect_timeout_s", "hmd_address",
                   "hmd_port", "unity", "tool", "cube", "views", "hold_s", "hmd_wait_s", "verify_s",
-                  "max_spread_mm", "hologram_position_mm", "k_close", "omega"});
+                  "max_spread_mm", "max_view_disagreement_mm", "hologram_position_mm", "k_close", "omega"});
   checkCancel(context);
   const std::string source = p.text("source", "hmd");
   const CubeDefinition cube = readCubeDefinition(cubeFile(p));
@@ -377,12 +464,13 @@ StepResult runAcquiredHmdCalibration(Session& session, const Json& params, const
     s.hmd_wait_s = p.number("hmd_wait_s", s.hmd_wait_s);
     s.verify_s = p.number("verify_s", s.verify_s);
     s.max_spread_mm = p.number("max_spread_mm", s.max_spread_mm);
+    s.max_view_disagreement_mm = p.number("max_view_disagreement_mm", s.max_view_disagreement_mm);
     if (s.views.empty() || s.views.size() > 12 || !(s.hold_s >= 0.5 && s.hold_s <= 30.0) ||
         !(s.hmd_wait_s > 0.0 && s.hmd_wait_s <= 1800.0) || !(s.verify_s >= 0.0 && s.verify_s <= 600.0) ||
-        !(s.max_spread_mm > 0.0)) {
+        !(s.max_spread_mm > 0.0) || !(s.max_view_disagreement_mm > 0.0)) {
       throw InvalidArgumentError(std::string(kStep) +
                                  ": views must name 1 to 12 views, hold_s be 0.5-30 s, hmd_wait_s in (0, 1800] s, "
-                                 "verify_s 0-600 s, max_spread_mm > 0");
+                                 "verify_s 0-600 s, max_spread_mm and max_view_disagreement_mm > 0");
     }
     // Where the headset shows the cube, in its own world frame: half a metre ahead of where its app started
     // (a HoloLens app's world origin), unless the lab places it elsewhere.
@@ -406,40 +494,48 @@ StepResult runAcquiredHmdCalibration(Session& session, const Json& params, const
       repository->setTransform("CT", patient->reference, patient->patient_T_ct, TransformStatus::Ok);
       models.push_back({kFiducialModel, fiducialMarkers(patient->fiducials_ct, 2.0), "CT"});
     }
+    // Everything the parameters can refuse is refused before the stream is served.
+    LiveTrackingOptions live = touchRecordingOptions(session, p, kStep, "CubeHolds", 600.0, recording);
+    holds_file = freeSessionName(session, kStep, "holds", ".json");
     std::atomic<std::uint64_t> hmd_confirmations{0};
     tracking::HologramStreamOptions stream_options;
     stream_options.unity = p.boolean("unity", false);
     // The headset's confirmation reaches this step and nothing else.
-    stream_options.on_confirmation = [&hmd_confirmations](igtlink::ClientId, const std::string&) {
-      hmd_confirmations.fetch_add(1);
+    stream_options.on_confirmation = [&hmd_confirmations](igtlink::ClientId, const std::string& text) {
+      if (!text.empty()) hmd_confirmations.fetch_add(1);
     };
     igtlink::Server server(server_options);
     tracking::HologramStreamer streamer(server, repository, models, stream_options);
+    // The server's handlers point at the streamer: stopped before it goes, whatever leaves this scope.
+    struct StopServer {
+      igtlink::Server& server;
+      ~StopServer() { server.stop(); }
+    } stop_server{server};
     try {
       server.start();
     } catch (const Error& e) {
       throw NetworkError(std::string(kStep) + ": cannot serve the hologram stream on " + s.endpoint + " (" +
-                         e.what() + "): stop the GUI's hologram stream or choose hmd_port");
+                         e.what() + "): another hologram stream (the GUI's, mrsns-cli serve) may hold that port; "
+                         "stop it or choose hmd_port");
     }
     CubeHoldAcquisition acquisition_state(s, cube, options, streamer, *repository, patient, hmd_confirmations,
                                           context.confirmations);
-    LiveTrackingOptions live = touchRecordingOptions(session, p, kStep, "CubeHolds", 600.0, recording);
+    // The accepted holds are on disk as soon as they are accepted: a cancelled or failed acquisition keeps them
+    // beside its recording.
+    const fs::path holds_path = session.resolve(holds_file);
+    acquisition_state.onHoldsChanged([&] {
+      std::ofstream(holds_path) << holdsJson(cube, options, acquisition_state.holds()).dump(2) << "\n";
+    });
+    std::ofstream(holds_path) << holdsJson(cube, options, {}).dump(2) << "\n";
     context.report(0.02, "serving the cube's hologram on " + s.endpoint + "; tracking from " + live.host + ":" +
                              std::to_string(live.port));
     const auto monitor = [&](const std::vector<TrackedFrame>& so_far, std::string& message) {
       return acquisition_state.step(so_far, message);
     };
-    LiveTrackingRecording r;
-    try {
-      r = recordLiveTracking(live, monitor, context);
-    } catch (...) {
-      streamer.setPrompt("");
-      server.stop();
-      throw;
-    }
+    const LiveTrackingRecording r = recordLiveTracking(live, monitor, context);
     server.stop();
     recorded = recordedFigures(r, recording, live);
-    frames = std::move(r.frames);
+    frames = r.frames;
     holds = acquisition_state.holds();
     result.figures["simulated"] = fromSimulatedRoom(r.device_identity);
     result.outputs.push_back(recording);
@@ -450,9 +546,6 @@ StepResult runAcquiredHmdCalibration(Session& session, const Json& params, const
                    {"hologram_position_mm",
                     {s.hologram_T_marker.translation().x(), s.hologram_T_marker.translation().y(),
                      s.hologram_T_marker.translation().z()}}};
-    // What was acquired is kept whatever happens next: the holds beside the recording.
-    holds_file = freeSessionName(session, kStep, "holds", ".json");
-    std::ofstream(session.resolve(holds_file)) << holdsJson(cube, options, holds).dump(2) << "\n";
     result.outputs.push_back(holds_file);
     const std::string kept = " (kept: " + recording + ", " + holds_file + ")";
     if (!acquisition_state.failure().empty() || holds.size() < s.views.size()) {
@@ -470,7 +563,8 @@ StepResult runAcquiredHmdCalibration(Session& session, const Json& params, const
     }
   } else if (source == "file") {
     for (const char* key : {"host", "port", "duration_s", "connect_timeout_s", "hmd_address", "hmd_port", "unity",
-                            "views", "hold_s", "hmd_wait_s", "verify_s", "max_spread_mm", "hologram_position_mm"}) {
+                            "views", "hold_s", "hmd_wait_s", "verify_s", "max_spread_mm", "max_view_disagreement_mm",
+                            "hologram_position_mm"}) {
       if (p.has(key)) throw InvalidArgumentError(std::string(kStep) + ": " + key + " is for source=hmd");
     }
     if (!p.has("recording") || !p.has("holds")) {
@@ -513,7 +607,8 @@ StepResult runAcquiredHmdCalibration(Session& session, const Json& params, const
                              ") per fiducial, cube calibration per view (Eq. 17), views averaged (Eq. 18-20)";
   result.figures["cube"] = {{"name", cube.name}, {"file", cube.file}, {"edge_mm", cube.edge_mm}};
   result.figures["views"] = viewFigures(holds, solution);
-  result.figures["view_spread"] = {{"max_pairwise_rotation_deg", solution.max_pairwise_rotation_deg},
+  result.figures["view_spread"] = {{"at_cube_rms_mm", solution.at_cube_rms_mm},
+                                   {"max_pairwise_rotation_deg", solution.max_pairwise_rotation_deg},
                                    {"max_pairwise_translation_mm", solution.max_pairwise_translation_mm}};
   result.figures["transforms"] = {{"HologramToTracker", matrixJson(solution.tracker_T_hologram.matrix())}};
   result.figures["holds_file"] = holds_file;
@@ -521,12 +616,15 @@ StepResult runAcquiredHmdCalibration(Session& session, const Json& params, const
                                       " --param source=file --param recording=" +
                                       recordingPath(session, recording).string() +
                                       " --param holds=" + recordingPath(session, holds_file).string();
-  result.figures["offline_verb"] = "mrsns-cli hmd-calibrate-cube --points " + session.resolve(points).string() +
-                                   " --omega " + formatFixed(options.omega, 2);
+  // The verb's tremor filter has K_close 4 (the paper's): it recomputes the step only with that.
+  if (options.k_close == 4) {
+    result.figures["offline_verb"] = "mrsns-cli hmd-calibrate-cube --points " + session.resolve(points).string() +
+                                     " --omega " + formatFixed(options.omega, 17);
+  }
   std::ostringstream s;
-  s << "HologramToTracker from " << holds.size() << " views: views agree within "
-    << formatFixed(solution.max_pairwise_translation_mm, 1) << " mm, "
-    << formatFixed(solution.max_pairwise_rotation_deg, 2) << " deg";
+  s << "HologramToTracker from " << holds.size() << " views: at the cube they agree within "
+    << formatFixed(solution.at_cube_rms_mm, 2) << " mm RMS (" << formatFixed(solution.max_pairwise_rotation_deg, 2)
+    << " deg apart at most)";
   if (acquisition.value("headset_drops", 0) > 0) {
     s << "; the headset left " << acquisition["headset_drops"].get<int>() << " time(s), its views were asked again";
   }

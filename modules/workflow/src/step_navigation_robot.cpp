@@ -4,6 +4,9 @@
 #include <cmath>
 #include <thread>
 
+#include "controller_identity.h"
+#include "live_tracking_recording.h"
+
 namespace mrsns::workflow::detail {
 
 namespace {
@@ -17,6 +20,35 @@ Eigen::Vector3d vector3(const Json& j, const std::string& what) {
 
 Json number(double v) {
   return std::isfinite(v) ? Json(v) : Json(nullptr);
+}
+
+// A simulated tracker never drives a real controller: mrsns-sim's PlusServer only the controller of its own
+// room (the serial number it announces), the in-process simulated tracker or a playback only a controller on
+// this machine (a simulator), and a robot calibration simulated in-process is no calibration of a real arm.
+void refuseSimulationDrivingARealController(const NavigationOptions& options, const Json& calibration) {
+  const auto& ro = options.robot;
+  const bool local = isLoopbackHost(ro.ur_host);
+  if ((options.devices.source == "simulated" || options.devices.source == "playback") && !local) {
+    const std::string tracker = options.devices.source == "simulated" ? "simulated" : "a recording played back";
+    throw InvalidArgumentError("navigation: the tracker is " + tracker +
+                               " and the UR controller at " + ro.ur_host +
+                               " is not on this machine: a simulated tracker never drives a real controller; connect "
+                               "the session to the tracker (connect-devices source=plus)");
+  }
+  if (!local && calibration["figures"].contains("simulation_truth")) {
+    throw InvalidArgumentError("navigation: the session's robot calibration was simulated in-process, not measured "
+                               "on the UR controller at " + ro.ur_host +
+                               ": run robot-calibration with source=ur on this robot first");
+  }
+  if (options.devices.source != "plus") return;
+  const std::string identity = trackerIdentity(options.devices.host, options.devices.port, 2.0);
+  if (!fromSimulatedRoom(identity)) return;
+  const std::string serial = controllerSerial(ro.ur_host, ro.ur_dashboard_port, "navigation");
+  if (announcedSerial(identity) != serial) {
+    throw InvalidArgumentError("navigation: the tracker is mrsns-sim's simulated one ('" + identity +
+                               "') and the UR controller at " + ro.ur_host + " (serial " + serial +
+                               ") is not its room's: a simulated tracker never drives another controller");
+  }
 }
 
 // The UR controller's address and where its base stands (the robot calibration: a real arm is not wheeled to
@@ -37,6 +69,7 @@ void configureUr(const Session& session, const Params& params, NavigationOptions
         "navigation: robot=ur needs the session's robot calibration (RobotBaseToTracker): the arm stands where it "
         "is, so run the robot-calibration step on this session first");
   }
+  refuseSimulationDrivingARealController(options, calibration);
   ro.tracker_T_robot_base = Eigen::Isometry3d(matrixFromJson(calibration["figures"]["transforms"]["RobotBaseToTracker"],
                                                              "session.json steps.robot-calibration.transforms."
                                                              "RobotBaseToTracker"));

@@ -19,6 +19,7 @@
 #include <sstream>
 #include <thread>
 
+#include "controller_identity.h"
 #include "live_tracking_recording.h"
 #include "mrsns/core/error.h"
 #include "mrsns/core/format.h"
@@ -64,31 +65,6 @@ std::uint16_t tcpPort(int value, const char* what) {
                                " is not in 1..65535");
   }
   return static_cast<std::uint16_t>(value);
-}
-
-/// The identity the PlusServer gives (mrsns-sim names itself), asked before anything moves.
-std::string trackerIdentity(const std::string& host, int port, double timeout_s) {
-  tracking::IgtlTrackingSource source(std::make_shared<TransformRepository>(), plusClientOptions(host, port));
-  source.start();
-  const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
-  std::string identity;
-  while (identity.empty() && std::chrono::steady_clock::now() < until) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(50));
-    identity = source.deviceIdentity();
-  }
-  source.stop();
-  return identity;
-}
-
-/// "... UR controller serial 2018551234)" -> "2018551234".
-std::string announcedSerial(const std::string& identity) {
-  const std::string key = "UR controller serial ";
-  const auto at = identity.find(key);
-  if (at == std::string::npos) return {};
-  std::string serial;
-  for (std::size_t i = at + key.size(); i < identity.size() && std::isdigit(static_cast<unsigned char>(identity[i])); ++i)
-    serial += identity[i];
-  return serial;
 }
 
 /// Stops the arm and repeats the stop every control period until it is at rest (a controller may ignore one
@@ -147,15 +123,7 @@ StepResult runLiveRobotCalibration(Session& session, const Json& params, const S
   context.report(0.02, "asking the tracker at " + live.host + ":" + std::to_string(live.port) + " who it is");
   const std::string identity = trackerIdentity(live.host, live.port, std::min(5.0, live.connect_timeout_s));
   const bool simulated = fromSimulatedRoom(identity);
-  std::string serial;
-  try {
-    robot::DashboardClient dashboard({ur.host, ur.dashboard_port, 2.0});
-    serial = dashboard.request("get serial number");
-  } catch (const Error& e) {
-    throw NetworkError("robot-calibration: cannot reach the UR dashboard at " + ur.host + ":" +
-                       std::to_string(ur.dashboard_port) + " (" + e.what() +
-                       "): check that the robot is on, in remote control, and the ports");
-  }
+  const std::string serial = controllerSerial(ur.host, ur.dashboard_port, "robot-calibration");
   if (simulated && announcedSerial(identity) != serial) {
     throw InvalidArgumentError("robot-calibration: the tracker is mrsns-sim's simulated one ('" + identity +
                                "') and the UR controller at " + ur.host + " (serial " + serial +

@@ -108,7 +108,8 @@ StepResult runHmdCalibration(Session& session, const Json& params, const StepCon
     return runAcquiredHmdCalibration(session, params, context);
   }
   const Params p("hmd-calibration", params,
-                 {"source", "seed", "hologram_noise_mm", "tracker_noise_mm", "cube_poses", "cube_trials", "checkerboard_poses"});
+                 {"source", "seed", "hologram_noise_mm", "tracker_noise_mm", "cube_poses", "cube_trials",
+                  "checkerboard_poses"});
   const auto seed = static_cast<std::uint64_t>(p.integer("seed", 1));
   const double holo_noise = p.number("hologram_noise_mm", 1.5);
   const double tracker_noise = p.number("tracker_noise_mm", 0.25);

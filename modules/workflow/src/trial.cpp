@@ -135,7 +135,9 @@ TrialResult runPhantomTrial(const TrialOptions& options) {
     // Then the drill's tip: the scenario's operator pivots the drill by hand (freedrive) from 205 s.
     nlohmann::json drill = at_room;
     drill["duration_s"] = 90.0;
-    const bool headset = room->endpoints().contains("hmd_port");
+    // The headset's calibration needs its wearer: a room whose headset nobody operates keeps the in-process one.
+    const bool headset =
+        room->endpoints().contains("hmd_port") && room->endpoints().value("hmd_cube_operator", false);
     plan.push_back({"drill-calibration", drill, false, !headset});
     if (headset) {
       // The headset's wearer lines the tracked cube up with its hologram, view after view, when asked; then the
@@ -224,7 +226,9 @@ TrialResult runPhantomTrial(const TrialOptions& options) {
   nlohmann::json module_trials = nlohmann::json::object();
   if (live_hmd) {
     options.context.report(1.0, "module trials: paper 001 Fig. 7 and paper 000's checkerboard");
-    if (options.hmd_cube_trials > 0) module_trials["cube_trial"] = detail::cubeTrialFigures(options.hmd_cube_trials, seed);
+    if (options.hmd_cube_trials > 0) {
+      module_trials["cube_trial"] = detail::cubeTrialFigures(options.hmd_cube_trials, seed);
+    }
     if (options.checkerboard_poses > 0) {
       module_trials["checkerboard_trial"] = detail::checkerboardTrialFigures(options.checkerboard_poses, seed);
     }

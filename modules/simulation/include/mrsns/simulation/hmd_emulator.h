@@ -121,6 +121,9 @@ class HmdEmulator {
   /// Every model (and pose-only device) received so far, by name.
   [[nodiscard]] std::vector<DisplayedModel> displayed() const;
   [[nodiscard]] std::vector<std::string> prompts() const;
+  /// The prompts received after the first `seen` of all (the count it returned last time, 0 at first), read
+  /// with the count under one lock, so none is skipped or read twice; `seen` becomes the new count.
+  [[nodiscard]] std::vector<std::string> promptsSince(std::uint64_t& seen) const;
   /// Sends the operator's confirmation (STRING, device "Confirm", e.g.
   /// "cube-aligned"). False when not connected (nothing is sent). Throws
   /// InvalidArgumentError for an empty text or one over 65535 bytes.

@@ -271,6 +271,9 @@ struct CubeOperatorSpec {
   std::string hologram = "CalibrationCube";  ///< the hologram's device name on the stream
   std::string prompt_contains = "line up the cube";
   std::string confirm = "aligned";  ///< the confirmation's text
+  /// False: the operator confirms with the workstation's foot pedal instead (which the room cannot press:
+  /// a test does), so the headset sends nothing.
+  bool confirm_on_headset = true;
   double align_s = 3.0;             ///< from the prompt to the cube on its hologram
   double confirm_after_s = 0.5;
   double hold_s = 4.0;  ///< held this long after confirming
