@@ -62,6 +62,19 @@ TEST(CliNavigationUr, ASimulatedTrackerNeverDrivesAControllerOnTheNetwork) {
   EXPECT_NE(r.err.find("a simulated tracker never drives a real controller"), std::string::npos) << r.err;
 }
 
+TEST(CliNavigationUr, WithThePlusServersTrackingTheDrillMustBeCalibratedOnThisSession) {
+  const auto dir = scratchDirectory("navur_cli") / "drill";
+  ASSERT_EQ(runCli({"session", "create", dir.string()}).exit_code, 0);
+  // The in-process simulated robot calibration knows where the base is, not where the drill's marker sits.
+  ASSERT_EQ(runCli({"session", "run", dir.string(), "robot-calibration"}).exit_code, 0);
+  const auto r = runCli({"session", "run", dir.string(), "navigation", "--robot", "ur", "--param", "source=plus",
+                         "--param", "port=" + std::to_string(closedPort()), "--param", "duration_s=1"});
+  EXPECT_EQ(r.exit_code, 1) << r.err;
+  EXPECT_EQ(lines(r.err), 1u) << r.err;
+  EXPECT_NE(r.err.find("MarkerToFlange"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("robot-calibration with source=ur"), std::string::npos) << r.err;
+}
+
 // `mrsns-cli robot-sim --port-offset N` in the background, killed (by its pid) when the test ends.
 class RobotSimProcess {
  public:

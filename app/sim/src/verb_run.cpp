@@ -31,6 +31,7 @@ struct RunOptions {
   double duration_s = -1.0;
   bool any_ports = false;
   int hmd_port = 0;
+  long long seed = -1;
 };
 
 // Written atomically once every device listens: a test or `mrsns-cli trial` waits for it.
@@ -64,6 +65,7 @@ Json endpointsJson(const simulation::OperatingRoomEndpoints& e, const simulation
 int run(const RunOptions& o, const SimOptions& options) {
   auto scenario = simulation::readScenario(o.scenario);
   if (o.duration_s >= 0.0) scenario.duration_s = o.duration_s;
+  if (o.seed >= 0) scenario.seed = static_cast<std::uint64_t>(o.seed);
   if (o.hmd_port > 0) {
     if (!scenario.hmd.enabled) {
       throw InvalidArgumentError("--hmd-port: the scenario '" + o.scenario + "' has no headset (hmd)");
@@ -140,6 +142,8 @@ VerbAction registerRunVerb(CLI::App& app, SimOptions& options, CLI::App*& sub) {
   sub->add_flag("--any-ports", o->any_ports,
                 "listen on ports the system picks instead of the scenario's (see --ready-file); for tests and "
                 "several rooms on one machine");
+  sub->add_option("--seed", o->seed, "the room's random seed (overrides the scenario's: noise, hands, operator)")
+      ->check(CLI::Range(0LL, 4294967295LL));
   sub->add_option("--hmd-port", o->hmd_port,
                   "the port of the workstation's hologram stream the scenario's headset connects to (overrides "
                   "the scenario's hmd.port)")

@@ -95,12 +95,18 @@ NavigationRobot::NavigationRobot(const NavigationRobotOptions& options, double m
     arm_ = sim_arm_;
   }
 
-  // The drill geometry and flange marker of the robot module's test scene.
-  flange_T_marker_.linear() = so3Exp(Eigen::Vector3d(0.0, 0.5, 0.3));
-  flange_T_marker_.translation() << 60, 0, 40;
   robot::ControlLoopSetup setup;
+  if (options.flange_T_marker && options.flange_T_tip) {
+    // The session's calibrations of this robot's drill.
+    flange_T_marker_ = *options.flange_T_marker;
+    setup.flange_T_tip = *options.flange_T_tip;
+  } else {
+    // The simulated drill: the flange marker and tip of the robot module's test scene.
+    flange_T_marker_.linear() = so3Exp(Eigen::Vector3d(0.0, 0.5, 0.3));
+    flange_T_marker_.translation() << 60, 0, 40;
+    setup.flange_T_tip.translation() << 0, 0, 150;
+  }
   setup.flange_T_marker = flange_T_marker_;
-  setup.flange_T_tip.translation() << 0, 0, 150;
   setup.plan = options.plan;  // validated by the ControlLoop
   setup.patient_T_plan = options.patient_T_plan;
   // base_T_tracker stays identity: with marker feedback the loop locates the patient through the drill

@@ -100,7 +100,8 @@ fs::path findSimProgram() {
 }
 
 SimulatedRoomProcess::SimulatedRoomProcess(const fs::path& program, const fs::path& scenario, const fs::path& truth,
-                                           const fs::path& log, double ready_timeout_s)
+                                           const fs::path& log, double ready_timeout_s,
+                                           std::optional<std::uint64_t> seed)
     : log_(log) {
   const fs::path ready = truth.parent_path() / "ready.json";
   fs::remove(ready);
@@ -108,6 +109,10 @@ SimulatedRoomProcess::SimulatedRoomProcess(const fs::path& program, const fs::pa
   std::vector<std::string> args = {"run",         "--scenario", scenario.string(), "--truth",      truth.string(),
                                    "--any-ports", "--duration", "0",               "--ready-file", ready.string(),
                                    "--json"};
+  if (seed) {
+    args.push_back("--seed");
+    args.push_back(std::to_string(*seed));
+  }
   if (hasHeadset(scenario)) {
     args.push_back("--hmd-port");
     args.push_back(std::to_string(igtlink::freeLocalPort()));

@@ -3,7 +3,9 @@
 // trial's live steps acquire from, run with a truth file the trial never
 // reads (only `mrsns-sim score` does, in a second child process).
 #include <filesystem>
+#include <cstdint>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <sys/types.h>
 
@@ -19,12 +21,12 @@ class SimulatedRoomProcess {
   /// system (a scenario's headset, a client, is told a free local port for the
   /// workstation's hologram stream: endpoints()["hmd_port"], so rooms run side
   /// by side never meet each other's headsets); its truth goes to `truth`, its
-  /// output to `log`. Waits for the
+  /// output to `log`; `seed` replaces the scenario's (mrsns-sim run --seed). Waits for the
   /// ready file. Throws FileError when the program cannot start or the room
   /// is not ready within `ready_timeout_s` (the message holds its log's tail).
   SimulatedRoomProcess(const std::filesystem::path& program, const std::filesystem::path& scenario,
                        const std::filesystem::path& truth, const std::filesystem::path& log,
-                       double ready_timeout_s = 120.0);
+                       double ready_timeout_s = 120.0, std::optional<std::uint64_t> seed = std::nullopt);
   ~SimulatedRoomProcess();
   SimulatedRoomProcess(const SimulatedRoomProcess&) = delete;
   SimulatedRoomProcess& operator=(const SimulatedRoomProcess&) = delete;

@@ -51,6 +51,35 @@ void refuseSimulationDrivingARealController(const NavigationOptions& options, co
   }
 }
 
+// A UR driven with a PlusServer's tracking: the drill as this session calibrated it (no geometry is assumed).
+void configureDrill(const Session& session, const Json& calibration, NavigationRobotOptions& ro) {
+  const auto& transforms = calibration["figures"]["transforms"];
+  if (!transforms.contains("MarkerToFlange")) {
+    throw InvalidArgumentError("navigation: robot=ur needs where the drill's marker sits on the flange "
+                               "(MarkerToFlange): the session's robot calibration has none; run robot-calibration "
+                               "with source=ur on this robot");
+  }
+  const auto drill = session.step("drill-calibration");
+  if (!drill.is_object() || drill.value("status", "") != "ok" || !drill.contains("figures") ||
+      !drill["figures"].contains("transforms") || !drill["figures"]["transforms"].contains("FlangeTipToFlange")) {
+    throw InvalidArgumentError("navigation: robot=ur needs the drill's tip (FlangeTipToFlange): run "
+                               "drill-calibration on this session first (the drill pivoted about its tip)");
+  }
+  const Eigen::Isometry3d flange_T_marker(
+      matrixFromJson(transforms["MarkerToFlange"], "session.json steps.robot-calibration MarkerToFlange"));
+  const Eigen::Isometry3d marker_T_tip(matrixFromJson(drill["figures"]["transforms"]["FlangeTipToFlange"],
+                                                      "session.json steps.drill-calibration FlangeTipToFlange"));
+  Eigen::Isometry3d flange_T_tip = Eigen::Isometry3d::Identity();
+  flange_T_tip.translation() = flange_T_marker * marker_T_tip.translation();
+  ro.flange_T_marker = flange_T_marker;
+  ro.flange_T_tip = flange_T_tip;
+  // The tracker reports the marker the robot calibration calibrated.
+  const auto params = calibration.value("params", Json::object());
+  ro.tool_transform = params.is_object() && params.contains("marker") && params["marker"].is_string()
+                          ? params["marker"].get<std::string>()
+                          : std::string("FlangeToTracker");
+}
+
 // The UR controller's address and where its base stands (the robot calibration: a real arm is not wheeled to
 // the patient by the software).
 void configureUr(const Session& session, const Params& params, NavigationOptions& options) {
@@ -69,6 +98,8 @@ void configureUr(const Session& session, const Params& params, NavigationOptions
         "navigation: robot=ur needs the session's robot calibration (RobotBaseToTracker): the arm stands where it "
         "is, so run the robot-calibration step on this session first");
   }
+  // What the session lacks is said before anything is asked over the network.
+  if (options.devices.source == "plus") configureDrill(session, calibration, ro);
   refuseSimulationDrivingARealController(options, calibration);
   ro.tracker_T_robot_base = Eigen::Isometry3d(matrixFromJson(calibration["figures"]["transforms"]["RobotBaseToTracker"],
                                                              "session.json steps.robot-calibration.transforms."

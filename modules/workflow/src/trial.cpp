@@ -82,8 +82,9 @@ TrialResult runPhantomTrial(const TrialOptions& options) {
       fs::create_directories(room_dir);
       options.context.report(0.0, "starting the simulated operating room (" + program.string() + ")");
       try {
+        // The trial's seed is the room's: its noise, its operator's hands, its headset.
         room = std::make_unique<detail::SimulatedRoomProcess>(program, scenario, room_dir / "truth.json",
-                                                              room_dir / "sim.log");
+                                                              room_dir / "sim.log", 120.0, options.seed);
         std::string noise_model;
         try {
           std::ifstream in(scenario);

@@ -112,6 +112,12 @@ struct NavigationRobotOptions {
   /// robot "ur": true: the loop computes the drill marker from the arm's reported pose as the tracker would see
   /// it (a simulated tracker, which has no arm to see); false: the tracker reports tool_transform itself.
   bool simulate_drill_marker = true;
+  /// The drill on the flange: its marker's mounting (MarkerToFlange, the robot calibration) and its tip (the
+  /// drill calibration's tip, the drill's axis along the flange's z: a pivot finds the tip, not the axis).
+  /// Set from the session when a UR is driven with a PlusServer's tracking (required then); otherwise the
+  /// simulated drill of the robot module's test scene.
+  std::optional<Eigen::Isometry3d> flange_T_marker;
+  std::optional<Eigen::Isometry3d> flange_T_tip;
 };
 
 /// Where the simulated cart is wheeled (tracker_T_robot_base, i.e. RobotBaseToTracker): the planned entry
