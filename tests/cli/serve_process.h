@@ -10,15 +10,10 @@
 
 namespace mrsns::test {
 
-/// A free loopback port (bound once by a throw-away server, then released).
+/// A free loopback port for a server another process is told about before it starts: below the system's
+/// ephemeral range, so no server bound to port 0 and no client's own end takes it meanwhile.
 inline std::uint16_t freePort() {
-  igtlink::ServerOptions options;
-  options.port = 0;
-  igtlink::Server server(options);
-  server.start();
-  const auto port = server.port();
-  server.stop();
-  return port;
+  return igtlink::freeLocalPort("127.0.0.1");
 }
 
 /// `mrsns-cli serve ARGS...` in the background.

@@ -162,6 +162,73 @@ TEST(SimHmdCalibration, TheCubeLinedUpInFourViewsCalibratesTheHeadsetOverTwoSeed
   }
 }
 
+/// One room, two sessions calibrated in it one after the other with `first` and `second` parameters; both scored
+/// against the room's truth.
+std::pair<Json, Json> twoCalibrationsInOneRoom(const std::string& name, int seed, const std::vector<std::string>& first,
+                                               const std::vector<std::string>& second) {
+  const auto dir = scratchDirectory(name);
+  const auto truth = dir / "truth.json";
+  const auto hmd_port = freePort();
+  SimProcess sim({"run", "--scenario", writeHmdScenario(dir, seed, hmd_port, Json::array()).string(), "--truth",
+                  truth.string(), "--ready-file", (dir / "ready.json").string(), "--any-ports", "--json"});
+  const auto ready = sim.waitReady(dir / "ready.json");
+  EXPECT_FALSE(ready.is_null()) << sim.wait().err;
+  if (ready.is_null()) return {};
+  std::vector<std::filesystem::path> sessions = {dir / "a", dir / "b"};
+  for (std::size_t i = 0; i < 2; ++i) {
+    EXPECT_EQ(runCli({"session", "create", sessions[i].string()}).exit_code, 0);
+    std::vector<std::string> args = {"session", "run", sessions[i].string(), "hmd-calibration", "--param",
+                                     "source=hmd", "--param", "port=" + std::to_string(ready["plus_port"].get<int>()),
+                                     "--param", "hmd_port=" + std::to_string(hmd_port), "--json"};
+    for (const auto& p : i == 0 ? first : second) args.insert(args.end(), {"--param", p});
+    const auto r = runCli(args);
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+  }
+  sim.terminate();
+  EXPECT_EQ(sim.wait(30.0).exit_code, 0);
+  std::pair<Json, Json> scores;
+  for (std::size_t i = 0; i < 2; ++i) {
+    const auto score = runSim({"score", sessions[i].string(), truth.string(), "--json"});
+    EXPECT_EQ(score.exit_code, 0) << score.err;
+    if (score.exit_code == 0) (i == 0 ? scores.first : scores.second) = Json::parse(score.out)["scored"];
+  }
+  return scores;
+}
+
+TEST(SimHmdCalibration, ThePapersUncompensatedControlInTheSameRoomsOverThreeSeeds) {
+  // Paper 001 Fig. 7's comparison in the room: its method (four views, tremor compensation) and its control
+  // (four matches from the front view, each fiducial from the sample at the confirmation), the same operator.
+  // Bounds from the noise model: the method as above (2.9 mm); the control keeps the whole 1.5 mm depth bias
+  // along one view, the per-match errors (1.25 mm 3D RMS) average to 0.63 mm over four, and the confirmation's
+  // sample adds the hand (0.5 mm tremor, a 2-4 mm slip 5 % of the time) averaged over four: 1.5 + 3 x 0.75 mm.
+  std::vector<std::future<std::pair<Json, Json>>> runs;
+  for (int seed : {1, 2, 3}) {
+    runs.push_back(std::async(std::launch::async, [seed] {
+      return twoCalibrationsInOneRoom("sim-hmd-control-" + std::to_string(seed), seed, {},
+                                      {"views=front,front,front,front", "tremor_compensation=false"});
+    }));
+  }
+  double sum_method = 0.0, sum_control = 0.0;
+  for (std::size_t i = 0; i < runs.size(); ++i) {
+    SCOPED_TRACE("seed " + std::to_string(i + 1));
+    const auto [method, control] = runs[i].get();
+    ASSERT_TRUE(method.contains("hmd_calibration")) << method.dump();
+    ASSERT_TRUE(control.contains("hmd_calibration")) << control.dump();
+    const double m = method["hmd_calibration"]["error_at_cube_hologram_mm"].get<double>();
+    const double c = control["hmd_calibration"]["error_at_cube_hologram_mm"].get<double>();
+    EXPECT_LT(m, 2.9);
+    EXPECT_LT(c, 3.75);
+    sum_method += m;
+    sum_control += c;
+    std::printf("[ figures ] seed %zu: HologramToTracker error at the cube's hologram: four views compensated %.2f mm "
+                "(%.2f deg), one view uncompensated %.2f mm (%.2f deg)\n",
+                i + 1, m, method["hmd_calibration"]["rotation_error_deg"].get<double>(), c,
+                control["hmd_calibration"]["rotation_error_deg"].get<double>());
+  }
+  std::printf("[ figures ] mean over 3 seeds: compensated four views %.2f mm, uncompensated front view %.2f mm\n",
+              sum_method / 3.0, sum_control / 3.0);
+}
+
 TEST(SimHmdCalibration, AnOccludedHoldIsAskedAgainAndAHeadsetThatLeftIsWaitedFor) {
   // The cube's marker is hidden for the first 14 s (the first view's hold, and maybe its second try, however
   // late the step starts on a loaded machine); the headset drops off for 3 s at 28 s, a view or two later.

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 
+#include <atomic>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -46,11 +47,13 @@ inline std::string slurpFile(const std::filesystem::path& p) {
 
 /// Runs `PROGRAM ARGS...` (arguments are shell-quoted) to its end and captures its output.
 inline CliResult runProgram(const std::filesystem::path& program, const std::vector<std::string>& args) {
-  static int counter = 0;
+  // Tests run programs from several threads at once (rooms side by side): each call its own files.
+  static std::atomic<int> counter{0};
+  const int n = counter.fetch_add(1);
   const auto dir = std::filesystem::temp_directory_path() / ("mrsns-cli-test-" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir);
-  const auto out_file = dir / ("out" + std::to_string(counter) + ".txt");
-  const auto err_file = dir / ("err" + std::to_string(counter++) + ".txt");
+  const auto out_file = dir / ("out" + std::to_string(n) + ".txt");
+  const auto err_file = dir / ("err" + std::to_string(n) + ".txt");
   std::string command = quoteArgument(program.string());
   for (const auto& a : args) {
     // Appended in two steps: GCC 12 -O3 warns falsely (-Wrestrict) on `" " + std::string`.

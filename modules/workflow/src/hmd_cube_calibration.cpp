@@ -119,7 +119,16 @@ CubeViewSolution solveCubeHold(const HoldSamples& samples, const CubeHold& hold,
   hmd::TremorOptions tremor;
   tremor.k_close = options.k_close;
   tremor.omega = options.omega;
-  const auto view = hmd::calibrateViewWithTremorCompensation(per_fiducial, hologram, tremor);
+  hmd::ViewCalibrationResult view;
+  if (options.tremor_compensation) {
+    view = hmd::calibrateViewWithTremorCompensation(per_fiducial, hologram, tremor);
+  } else {
+    for (const auto& f : per_fiducial) {
+      view.fiducial_tracker.push_back(f.front());
+      view.dropped_samples.push_back(0);
+    }
+    view.calibration = hmd::calibrateCube(view.fiducial_tracker, hologram);
+  }
   CubeViewSolution s;
   s.tracker_T_hologram = view.calibration.tracker_T_hololens;
   s.rigid_rms_mm = view.calibration.rigid_rms_mm;
@@ -175,6 +184,7 @@ Json holdsJson(const CubeDefinition& cube, const CubeHoldsOptions& options, cons
           {"cube", {{"name", cube.name}, {"file", cube.file}, {"edge_mm", cube.edge_mm},
                     {"cube_to_marker", rowMajor(cube.marker_T_cube)}}},
           {"transform", options.transform},
+          {"tremor_compensation", options.tremor_compensation},
           {"holds", h}};
 }
 
@@ -215,7 +225,9 @@ void writeCubePointsCsv(const std::filesystem::path& file, const std::vector<Tra
     out << buffer;
   };
   for (std::size_t h = 0; h < holds.size(); ++h) {
-    const auto samples = holdSamples(frames, holds[h], options.transform);
+    auto samples = holdSamples(frames, holds[h], options.transform);
+    // Uncompensated: the one sample each fiducial is taken from (the verb then averages one sample: itself).
+    if (!options.tremor_compensation && !samples.tracker_T_marker.empty()) samples.tracker_T_marker.resize(1);
     // Views are told apart by name: a repeated name gets its order number.
     const std::string view = holds[h].view + "_" + std::to_string(h + 1);
     for (const auto& t : samples.tracker_T_marker) {

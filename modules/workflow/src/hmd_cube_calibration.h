@@ -49,6 +49,9 @@ struct CubeHoldsOptions {
   std::string transform = "CubeToTracker";
   int k_close = 4;
   double omega = 1.5;
+  /// false: paper 001's uncompensated control, each fiducial from the single sample at the confirmation (the
+  /// hold's first), as a comparison; the hold is still recorded and judged whole.
+  bool tremor_compensation = true;
 };
 
 /// One hold's samples: the CubeToTracker poses recorded in [start, end], and how many frames there had none.

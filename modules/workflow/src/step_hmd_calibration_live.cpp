@@ -439,7 +439,8 @@ StepResult runAcquiredHmdCalibration(Session& session, const Json& params, const
   const Params p(kStep, params,
                  {"source", "host", "port", "recording", "holds", "duration_s", "connect_timeout_s", "hmd_address",
                   "hmd_port", "unity", "tool", "cube", "views", "hold_s", "hmd_wait_s", "verify_s",
-                  "max_spread_mm", "max_view_disagreement_mm", "hologram_position_mm", "k_close", "omega"});
+                  "max_spread_mm", "max_view_disagreement_mm", "hologram_position_mm", "k_close", "omega",
+                  "tremor_compensation"});
   checkCancel(context);
   const std::string source = p.text("source", "hmd");
   const CubeDefinition cube = readCubeDefinition(cubeFile(p));
@@ -447,6 +448,7 @@ StepResult runAcquiredHmdCalibration(Session& session, const Json& params, const
   options.transform = p.text("tool", "Cube") + "ToTracker";
   options.k_close = p.integer("k_close", options.k_close);
   options.omega = p.number("omega", options.omega);
+  options.tremor_compensation = p.boolean("tremor_compensation", options.tremor_compensation);
   if (options.k_close < 2 || !(options.omega > 0.0)) {
     throw InvalidArgumentError(std::string(kStep) + ": k_close must be >= 2 and omega > 0 (Eq. 13-14)");
   }
@@ -586,6 +588,9 @@ StepResult runAcquiredHmdCalibration(Session& session, const Json& params, const
     if (j.contains("transform") && j["transform"].is_string() && !p.has("tool")) {
       options.transform = j["transform"].get<std::string>();
     }
+    if (j.contains("tremor_compensation") && j["tremor_compensation"].is_boolean() && !p.has("tremor_compensation")) {
+      options.tremor_compensation = j["tremor_compensation"].get<bool>();
+    }
     recorded = {{"file", recording}, {"frames", frames.size()}};
   } else {
     throw InvalidArgumentError(std::string(kStep) + ": source must be hmd (live, with the headset), file or " +
@@ -602,9 +607,13 @@ StepResult runAcquiredHmdCalibration(Session& session, const Json& params, const
   result.figures["source"] = source;
   result.figures["recorded"] = recorded;
   if (!acquisition.empty()) result.figures["acquisition"] = acquisition;
-  result.figures["method"] = "paper 001 §II.C: tremor compensation (Eq. 12-16, K_close " +
-                             std::to_string(options.k_close) + ", omega " + formatFixed(options.omega, 2) +
-                             ") per fiducial, cube calibration per view (Eq. 17), views averaged (Eq. 18-20)";
+  result.figures["method"] =
+      options.tremor_compensation
+          ? "paper 001 §II.C: tremor compensation (Eq. 12-16, K_close " + std::to_string(options.k_close) +
+                ", omega " + formatFixed(options.omega, 2) +
+                ") per fiducial, cube calibration per view (Eq. 17), views averaged (Eq. 18-20)"
+          : "paper 001's uncompensated control: each fiducial from the sample at the confirmation, cube "
+            "calibration per view (Eq. 2-3), views averaged (Eq. 18-20)";
   result.figures["cube"] = {{"name", cube.name}, {"file", cube.file}, {"edge_mm", cube.edge_mm}};
   result.figures["views"] = viewFigures(holds, solution);
   result.figures["view_spread"] = {{"at_cube_rms_mm", solution.at_cube_rms_mm},

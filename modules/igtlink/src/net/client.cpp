@@ -47,6 +47,15 @@ struct Client::Impl : std::enable_shared_from_this<Client::Impl> {
         return;
       }
       asio::error_code ignored;
+      // Retrying a local port nobody listens on, the system may pick that very port as the client's own and the
+      // socket connects to itself (TCP simultaneous open), which also keeps the server it waits for from binding.
+      const auto local = self->socket.local_endpoint(ignored);
+      const auto remote = self->socket.remote_endpoint(ignored);
+      if (local == remote) {
+        self->socket.close(ignored);
+        self->retry("connected to itself: nobody listens on that port");
+        return;
+      }
       self->socket.set_option(asio::ip::tcp::no_delay(true), ignored);
       self->framer.reset();
       self->backoff_s = self->options.backoff_initial_s;

@@ -1,6 +1,9 @@
 #include "mrsns/igtlink/server.h"
 
 #include <asio.hpp>
+#include <random>
+#include <fstream>
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <deque>
@@ -395,13 +398,31 @@ ServerStats Server::stats() const {
 }
 
 std::uint16_t freeLocalPort(const std::string& address) {
-  try {
-    asio::io_context io;
-    asio::ip::tcp::acceptor acceptor(io, asio::ip::tcp::endpoint(asio::ip::make_address(address), 0));
-    return acceptor.local_endpoint().port();
-  } catch (const std::exception& e) {
-    throw NetworkError("no free TCP port on " + address + ": " + e.what());
+  // Below the system's ephemeral range: a port the system hands out itself (to a server bound to port 0, to a
+  // client's own end) could be taken before the server it is meant for binds, or a client retrying it could
+  // connect to itself.
+  int low = 32768;
+  if (std::ifstream range("/proc/sys/net/ipv4/ip_local_port_range"); range) range >> low;
+  const int top = std::clamp(low - 1, 2048, 65535);
+  const int bottom = std::max(1024, top - 12000);
+  std::mt19937 rng(std::random_device{}());
+  std::uniform_int_distribution<int> pick(bottom, top);
+  std::string last_error = "no attempt";
+  for (int attempt = 0; attempt < 200; ++attempt) {
+    const auto port = static_cast<std::uint16_t>(pick(rng));
+    try {
+      asio::io_context io;
+      asio::ip::tcp::acceptor acceptor(io);
+      const asio::ip::tcp::endpoint endpoint(asio::ip::make_address(address), port);
+      acceptor.open(endpoint.protocol());
+      acceptor.bind(endpoint);
+      return port;
+    } catch (const std::exception& e) {
+      last_error = e.what();
+    }
   }
+  throw NetworkError("no free TCP port on " + address + " between " + std::to_string(bottom) + " and " +
+                     std::to_string(top) + ": " + last_error);
 }
 
 }  // namespace mrsns::igtlink

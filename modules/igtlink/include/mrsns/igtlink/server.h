@@ -93,9 +93,10 @@ class Server {
   std::shared_ptr<Impl> impl_;
 };
 
-/// A TCP port free on `address` now (the system's choice for a socket bound to port 0, released at once), for
-/// a server a peer must be told about before it starts (a headset that connects to the workstation). Another
-/// program may take it meanwhile. Throws NetworkError when no socket can be bound.
+/// A TCP port free on `address` now, for a server a peer must be told about before it starts (a headset that
+/// connects to the workstation): picked at random below the system's ephemeral range, so neither a server
+/// bound to port 0 nor a client's own end is given it meanwhile (another program may still take it). Throws
+/// NetworkError when none of 200 tries can be bound.
 std::uint16_t freeLocalPort(const std::string& address = "127.0.0.1");
 
 }  // namespace mrsns::igtlink
