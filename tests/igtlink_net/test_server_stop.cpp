@@ -19,6 +19,7 @@
 #include <mutex>
 #include <thread>
 
+#include "mrsns/core/error.h"
 #include "mrsns/igtlink/server.h"
 
 namespace mrsns::igtlink {
@@ -81,6 +82,27 @@ TEST(IgtlServerStop, ReturnsWhileClientsConnectAndResetConcurrently) {
     done = true;
     for (auto& c : clients) c.join();
   }
+}
+
+TEST(FreeLocalPort, IsBelowTheEphemeralRangeAndAServerCanTakeIt) {
+  // A port told to a peer before its server starts: never one the system itself hands out meanwhile.
+  int low = 32768;
+  if (std::FILE* f = std::fopen("/proc/sys/net/ipv4/ip_local_port_range", "r")) {
+    if (std::fscanf(f, "%d", &low) != 1) low = 32768;
+    std::fclose(f);
+  }
+  for (int i = 0; i < 20; ++i) {
+    const std::uint16_t port = freeLocalPort("127.0.0.1");
+    EXPECT_LT(port, low);
+    EXPECT_GE(port, 1024);
+    ServerOptions options;
+    options.port = port;
+    Server server(options);
+    server.start();
+    EXPECT_EQ(server.port(), port);
+    server.stop();
+  }
+  EXPECT_THROW(static_cast<void>(freeLocalPort("not an address")), NetworkError);
 }
 
 }  // namespace

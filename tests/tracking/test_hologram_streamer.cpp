@@ -4,6 +4,8 @@
 #include <gtest/gtest.h>
 
 #include <map>
+#include <mutex>
+#include <atomic>
 
 #include "mrsns/core/error.h"
 #include "mrsns/core/rigid.h"
@@ -170,6 +172,60 @@ TEST(HologramStream, ClientMessagesChangeNothing) {
     EXPECT_TRUE(
         test::equalAsFloat32(received[i].message.as<igtlink::TransformContent>()->matrix, scene.hol_T_vir().matrix()));
   }
+}
+
+TEST(HologramStream, OnlyAConfirmationReachesItsCallbackAndPromptsReachLateHeadsets) {
+  Scene scene;
+  igtlink::Server server(loopback());
+  std::atomic<int> confirmations{0};
+  std::string last;
+  std::mutex last_mutex;
+  auto options = streamOptions(igtlink::HeaderVersion::kV2);
+  options.on_confirmation = [&](igtlink::ClientId, const std::string& text) {
+    std::lock_guard lock(last_mutex);
+    last = text;
+    confirmations.fetch_add(1);
+  };
+  HologramStreamer streamer(server, scene.repository, {models()[0]}, options);
+  server.start();
+  streamer.setPrompt("line up the cube");
+  test::Recorder recorder(server.port());
+  ASSERT_TRUE(waitFor([&] { return streamer.readyClients() == 1 && recorder.client().connected(); }));
+  // The prompt set before the headset came is sent to it on connection.
+  ASSERT_TRUE(waitFor([&] { return recorder.count("STRING") == 1; }));
+  const std::string oversized(kMaxConfirmationBytes + 1, 'x');
+  const auto edges_before = scene.repository->edges();
+  const std::vector<igtlink::Message> ignored = {
+      igtlink::makeMessage("Confirm", igtlink::StringContent{igtlink::kEncodingUsAscii, oversized}),
+      igtlink::makeMessage("CMD", igtlink::StringContent{igtlink::kEncodingUsAscii, "Confirm"}),
+      igtlink::makeMessage("Confirm", igtlink::TransformContent::fromIsometry(Eigen::Isometry3d::Identity())),
+  };
+  for (const auto& m : ignored) ASSERT_TRUE(recorder.client().send(m, igtlink::HeaderVersion::kV2));
+  ASSERT_TRUE(waitFor([&] { return streamer.stats().client_messages_ignored == ignored.size(); }));
+  EXPECT_EQ(confirmations.load(), 0) << "an oversized text, another device, another type: not a confirmation";
+  ASSERT_TRUE(recorder.client().send(
+      igtlink::makeMessage("Confirm", igtlink::StringContent{igtlink::kEncodingUsAscii, "aligned"}),
+      igtlink::HeaderVersion::kV1));
+  ASSERT_TRUE(waitFor([&] { return confirmations.load() == 1; }));
+  {
+    std::lock_guard lock(last_mutex);
+    EXPECT_EQ(last, "aligned");
+  }
+  EXPECT_EQ(streamer.stats().confirmations, 1U);
+  streamer.setPrompt("hold it still");
+  ASSERT_TRUE(waitFor([&] { return recorder.count("STRING") == 2; }));
+  server.stop();
+  // Nothing a client sent changed the repository.
+  const auto edges_after = scene.repository->edges();
+  ASSERT_EQ(edges_after.size(), edges_before.size());
+  for (std::size_t i = 0; i < edges_before.size(); ++i) {
+    EXPECT_TRUE(edges_after[i].to_T_from.matrix() == edges_before[i].to_T_from.matrix());
+  }
+  std::vector<std::string> prompts;
+  for (const auto& r : recorder.messages()) {
+    if (const auto* text = r.message.as<igtlink::StringContent>()) prompts.push_back(text->text);
+  }
+  EXPECT_EQ(prompts, (std::vector<std::string>{"line up the cube", "hold it still"}));
 }
 
 TEST(HologramStream, UnityConventionMovesConvertedMeshesLikeTheOriginal) {
