@@ -40,7 +40,9 @@ TEST(CliTrial, ShortTrialReportHasEveryFigure) {
        {"/residual_rms_mm", "/validation_error_mm/mean", "/transforms/RobotBaseToTracker", "/transforms/MarkerToFlange",
         "/recorded/stations_file"}},
       {"pivot-calibration", {"/tip_marker_mm", "/rms_mm", "/recorded/file"}},
+      {"spin-calibration", {"/shaft_marker", "/window/first_frame", "/offline_command", "/transforms/StylusTipToStylus"}},
       {"drill-calibration", {"/tip_marker_mm", "/rms_mm", "/recorded/file", "/transforms/FlangeTipToFlange"}},
+      {"drill-spin-calibration", {"/shaft_marker", "/recorded/file", "/transforms/FlangeTipToFlange"}},
       {"registration",
        {"/landmarks/fre_rms_mm", "/landmarks/matched", "/surface/rms_mm", "/tre_predicted_at_screws/rms", "/targets",
         "/models", "/paths", "/transforms/CTToPatient", "/recorded/file"}},
@@ -100,6 +102,12 @@ TEST(CliTrial, ShortTrialReportHasEveryFigure) {
   // that moved during the pivot, an arm taken over mid-motion, would bias it well beyond).
   EXPECT_LT(room["score"]["scored"]["drill_calibration"]["tip_error_mm"].get<double>(),
             steps["drill-calibration"]["figures"]["rms_mm"].get<double>());
+  // The stylus turned about its shaft, and the drill about its axis (freedrive): both judged against the truth.
+  for (const char* spin : {"spin_calibration", "drill_spin_calibration"}) {
+    ASSERT_TRUE(room["score"]["scored"].contains(spin)) << spin << ": " << room["score"].dump();
+    // Orientation noise 0.05 deg per sample over ~170 poses: hundredths of a degree; 0.2 deg is a wrong stretch.
+    EXPECT_LT(room["score"]["scored"][spin]["shaft_error_deg"].get<double>(), 0.2) << spin;
+  }
   EXPECT_TRUE(room["score"]["scored"].contains("robot_calibration")) << "the room's UR, driven by the workstation";
   EXPECT_EQ(steps["robot-calibration"]["figures"]["source"], "ur");
   EXPECT_TRUE(room["score"]["scored"].contains("us_phantom_registration")) << room["score"].dump();

@@ -68,6 +68,16 @@ TEST_F(SimulatedRoomTest, StartConnectAndStopFromTheDevicesMenu) {
   EXPECT_TRUE(window->saveScreenshot(
       QString::fromStdString((mrsns::test::guiArtifactDir() / "main_window_simulated_pivot.png").string())));
 
+  // Then the operator turns the stylus about its shaft (12.5-17.5 s): the tip's whole frame.
+  EXPECT_TRUE(window->deviceParams("spin-calibration").empty()) << "the step itself defaults to the PlusServer";
+  window->findChild<QAction*>("actionStep_spin-calibration")->trigger();
+  ASSERT_TRUE(mrsns::test::waitUntil([&] { return !window->taskRunning(); }, 60000));
+  const auto after_spin = window->sessionState();
+  const auto& spin_step = after_spin["steps"]["spin-calibration"];
+  ASSERT_EQ(spin_step.value("status", ""), "ok") << spin_step.dump() << messages();
+  EXPECT_TRUE(spin_step["figures"]["simulated"].get<bool>());
+  EXPECT_TRUE(spin_step["figures"]["recorded"]["complete"].get<bool>());
+
   // The patient registration from the Workflow menu, live on the same PlusServer: the scenario's operator
   // touches the phantom's eight fiducial screws from 18 s on, then sweeps the exposed bone (54-74 s); the step
   // prepares the CT while it already records, matches the touches to the fiducials it finds in the CT, and
@@ -141,6 +151,14 @@ TEST_F(SimulatedRoomTest, StartConnectAndStopFromTheDevicesMenu) {
   EXPECT_TRUE(drill["figures"]["simulated"].get<bool>());
   EXPECT_NEAR(drill["figures"]["tip_length_mm"].get<double>(), 150.0 - 40.0, 2.0)
       << "the scenario's drill tip, 150 mm along the flange, seen from its marker 40 mm out";
+  // And turns the drill about its axis (from 224 s): the drilling direction.
+  window->findChild<QAction*>("actionStep_drill-spin-calibration")->trigger();
+  ASSERT_TRUE(mrsns::test::waitUntil([&] { return !window->taskRunning(); }, 60000));
+  const auto after_drill_spin = window->sessionState();
+  const auto& drill_spin = after_drill_spin["steps"]["drill-spin-calibration"];
+  ASSERT_EQ(drill_spin.value("status", ""), "ok") << drill_spin.dump() << messages();
+  EXPECT_LT(drill_spin["figures"]["shaft_to_tip_line_deg"].get<double>(), 1.0)
+      << "the scenario's drill points from its flange through its tip, its marker on that line";
 
   // The headset: the room's wearer lines the tracked cube up with its hologram in each of four views and
   // confirms on the headset; then the patient's fiducials are shown through the new calibration.

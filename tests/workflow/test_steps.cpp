@@ -39,7 +39,8 @@ struct ProgressLog {
 TEST(Steps, ListIsThePaperWorkflowInOrder) {
   const auto steps = listSteps();
   const std::vector<std::string> expected = {
-      "connect-devices", "pivot-calibration", "drill-calibration", "us-phantom-registration", "us-spatial-calibration",
+      "connect-devices", "pivot-calibration", "spin-calibration", "drill-calibration", "drill-spin-calibration",
+      "us-phantom-registration", "us-spatial-calibration",
       "us-temporal-calibration", "robot-calibration", "registration", "hmd-calibration", "navigation",
       "robot-placement"};
   ASSERT_EQ(steps.size(), expected.size());

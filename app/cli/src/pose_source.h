@@ -15,6 +15,10 @@ struct PoseSourceOptions {
   std::string sequence;
   std::string transform;
   std::string csv;
+  /// Only frames first_frame..last_frame (0-based, inclusive; -1: to the end): the part of a recording an
+  /// acquisition used.
+  int first_frame = 0;
+  int last_frame = -1;
 };
 
 struct LoadedPoses {
@@ -23,7 +27,7 @@ struct LoadedPoses {
   Json summary = Json::object();
 };
 
-/// Adds --sequence/--transform/--csv to a subcommand.
+/// Adds --sequence/--transform/--csv/--first-frame/--last-frame to a subcommand.
 void addPoseSourceOptions(CLI::App& sub, PoseSourceOptions& options, const std::string& default_transform);
 
 /// Throws InvalidArgumentError when neither or both sources are given.

@@ -71,6 +71,7 @@ struct SpinVerbOptions {
   PoseSourceOptions source;
   std::vector<double> tip;
   double min_spin_deg = 30.0;
+  std::string output;
 };
 
 Report runSpin(const SpinVerbOptions& options) {
@@ -79,6 +80,9 @@ Report runSpin(const SpinVerbOptions& options) {
   spin_options.min_spin_angle = options.min_spin_deg / kDegPerRad;
   Eigen::Vector3d tip = Eigen::Vector3d::Zero();
   if (!options.tip.empty()) tip = Eigen::Vector3d(options.tip[0], options.tip[1], options.tip[2]);
+  if (!options.output.empty() && options.tip.empty()) {
+    throw InvalidArgumentError("calibrate-spin --output needs --tip (the tip frame's origin, from calibrate-pivot)");
+  }
   const auto result = registration::calibrateSpin(loaded.poses, spin_options, options.tip.empty() ? nullptr : &tip);
   Report report;
   report.json["verb"] = "calibrate-spin";
@@ -87,11 +91,22 @@ Report runSpin(const SpinVerbOptions& options) {
   report.json["spin_angle_deg"] = result.spin_angle * kDegPerRad;
   report.json["axis_rms_deg"] = result.axis_rms_angle * kDegPerRad;
   report.json["axis_distinctness"] = result.axis_distinctness;
+  if (!options.output.empty()) {
+    // TipToMarker with the shaft as the tip frame's z (PLUS's convention); transform files hold the inverse.
+    const Eigen::Isometry3d marker_T_tip = registration::tipFrame(tip, result.shaft_marker);
+    io::writeTransformFile(marker_T_tip.inverse().matrix(), options.output);
+    report.json["output"] = options.output;
+    report.json["tip_frame"] = Json::array();
+    for (int r = 0; r < 4; ++r) {
+      for (int c = 0; c < 4; ++c) report.json["tip_frame"].push_back(marker_T_tip.matrix()(r, c));
+    }
+  }
   std::ostringstream text;
   text << "Spin calibration (" << loaded.poses.size() << " poses)\n"
        << "  shaft direction in marker frame: " << formatVector(result.shaft_marker, 5) << '\n'
        << "  spin covered: " << result.spin_angle * kDegPerRad << " deg; axis wobble RMS "
        << result.axis_rms_angle * kDegPerRad << " deg\n";
+  if (!options.output.empty()) text << "  written: " << options.output << '\n';
   report.text = text.str();
   return report;
 }
@@ -128,6 +143,8 @@ void registerCalibrateToolVerbs(CLI::App& app, GlobalOptions& options, VerbList&
   spin_cmd->add_option("--min-spin-deg", spin->min_spin_deg, "smallest spin accepted, degrees")
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
+  spin_cmd->add_option("--output", spin->output,
+                       "write the tip's frame TipToMarker (origin at --tip, z along the shaft; .tfm, .h5 or .txt)");
   addJsonFlag(*spin_cmd, options);
   verbs.emplace_back(spin_cmd, [spin] { return runSpin(*spin); });
 }

@@ -70,4 +70,20 @@ SpinResult calibrateSpin(std::span<const Eigen::Isometry3d> tracker_T_marker, co
   return result;
 }
 
+Eigen::Isometry3d tipFrame(const Eigen::Vector3d& tip_marker, const Eigen::Vector3d& shaft_marker) {
+  if (!(shaft_marker.norm() > 1e-9) || !tip_marker.allFinite()) {
+    throw InvalidArgumentError("tip frame: the shaft direction must be a finite non-zero vector");
+  }
+  const Eigen::Vector3d z = shaft_marker.normalized();
+  // The marker's x unless the shaft nearly lies along it (then its y), made perpendicular to the shaft.
+  const Eigen::Vector3d seed = std::abs(z.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
+  const Eigen::Vector3d x = (seed - seed.dot(z) * z).normalized();
+  Eigen::Isometry3d marker_T_tip = Eigen::Isometry3d::Identity();
+  marker_T_tip.linear().col(0) = x;
+  marker_T_tip.linear().col(1) = z.cross(x);
+  marker_T_tip.linear().col(2) = z;
+  marker_T_tip.translation() = tip_marker;
+  return marker_T_tip;
+}
+
 }  // namespace mrsns::registration

@@ -193,10 +193,39 @@ struct OperatingRoom::Impl {
   double guided_end_s = 0.0;  ///< when the previous waypoint ended (the next one without at_s starts then)
   std::optional<GuidedPlay> guiding;
 
+  /// The drill turned back and forth about its own axis (the line from the flange through its tip), the tip
+  /// held in the divot: `spin_cycles` sine periods of `spin_deg` each way over the duration.
+  std::vector<std::pair<robot::Joints, double>> spinPath(const RobotSpec::GuidedWaypoint& w,
+                                                         const robot::Joints& from) const {
+    const auto& kinematics = ur->arm().kinematics();
+    const Eigen::Isometry3d base_T_flange = kinematics.forward(from);
+    const Eigen::Vector3d tip = base_T_flange * scenario.robot.drill_tip_flange;
+    const Eigen::Vector3d axis = (tip - base_T_flange.translation()).normalized();
+    constexpr int kPerCycle = 96;  // a few degrees of turn per waypoint
+    const int n = kPerCycle * w.spin_cycles;
+    std::vector<std::pair<robot::Joints, double>> path;
+    robot::Joints q = from;
+    for (int i = 1; i <= n; ++i) {
+      const double angle = w.spin_deg * M_PI / 180.0 * std::sin(2.0 * M_PI * i / kPerCycle);
+      Eigen::Isometry3d about_axis = Eigen::Isometry3d::Identity();
+      about_axis.linear() = Eigen::AngleAxisd(angle, axis).toRotationMatrix();
+      about_axis.translation() = tip - about_axis.linear() * tip;
+      const auto next = kinematics.inverseNearest(about_axis * base_T_flange, q, &ur->arm().options().limits);
+      if (!next) {
+        throw ComputationError("hand-guided drill spin: the UR5 cannot turn the drill " + std::to_string(w.spin_deg) +
+                               " deg about its axis from where it stands");
+      }
+      q = *next;
+      path.emplace_back(q, w.duration_s / n);
+    }
+    return path;
+  }
+
   /// The joints of one waypoint, from where the arm stands: the target, or the drill pivoting about its tip.
   std::vector<std::pair<robot::Joints, double>> guidedPath(const RobotSpec::GuidedWaypoint& w,
                                                            const robot::Joints& from) const {
     std::vector<std::pair<robot::Joints, double>> path;
+    if (w.spin_deg > 0.0) return spinPath(w, from);
     if (w.pivot_deg <= 0.0) {
       robot::Joints to;
       for (int i = 0; i < 6; ++i) to[i] = w.joints[static_cast<std::size_t>(i)];

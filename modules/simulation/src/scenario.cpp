@@ -270,10 +270,11 @@ MotionSegment readSegment(const Node& n) {
                                {"move", MotionKind::Move},
                                {"sweep", MotionKind::Sweep},
                                {"pivot", MotionKind::Pivot},
+                               {"spin", MotionKind::Spin},
                                {"up_down", MotionKind::UpDown},
                                {"touch_landmarks", MotionKind::TouchLandmarks},
                                {"trace_bone", MotionKind::TraceBone}});
-  if (!n.has("kind")) n.fail("needs 'kind' (hold, move, sweep, pivot, up_down, touch_landmarks, trace_bone)");
+  if (!n.has("kind")) n.fail("needs 'kind' (hold, move, sweep, pivot, spin, up_down, touch_landmarks, trace_bone)");
   s.duration_s = n.number("duration_s", 1.0, 1e-3, 86400.0);
   switch (s.kind) {
     case MotionKind::Hold: n.allow({"kind", "duration_s", "pose", "frame", "pose_of"}); break;
@@ -292,6 +293,12 @@ MotionSegment readSegment(const Node& n) {
       s.amplitude_deg = n.number("amplitude_deg", s.amplitude_deg, 0.0, 80.0);
       s.frequency_hz = n.number("frequency_hz", s.frequency_hz, 1e-3, 5.0);
       s.one_axis = n.boolean("one_axis", false);
+      break;
+    case MotionKind::Spin:
+      // Turning the tool between the fingers about its shaft, the tip in the divot.
+      n.allow({"kind", "duration_s", "amplitude_deg", "frequency_hz"});
+      s.amplitude_deg = n.number("amplitude_deg", 60.0, 0.0, 170.0);
+      s.frequency_hz = n.number("frequency_hz", s.frequency_hz, 1e-3, 5.0);
       break;
     case MotionKind::UpDown:
       n.allow({"kind", "duration_s", "amplitude_mm", "frequency_hz", "axis", "frame"});
@@ -377,7 +384,7 @@ HandModel readHand(const Node& n) {
 }
 
 ToolSpec readTool(const Node& n) {
-  n.allow({"name", "marker_radius_mm", "start", "start_frame", "motion", "hand", "tip_mm"});
+  n.allow({"name", "marker_radius_mm", "start", "start_frame", "motion", "hand", "tip_mm", "shaft_axis"});
   ToolSpec t;
   t.name = n.required("name");
   checkToolName(n, "name", t.name);
@@ -387,10 +394,16 @@ ToolSpec readTool(const Node& n) {
   for (const auto& s : n.array("motion")) t.motion.push_back(readSegment(s));
   if (n.has("hand")) t.hand = readHand(n.child("hand"));
   if (n.has("tip_mm")) t.tip_tool = n.vector3("tip_mm", Eigen::Vector3d::Zero());
+  if (n.has("shaft_axis")) {
+    const Eigen::Vector3d axis = n.vector3("shaft_axis", Eigen::Vector3d::UnitZ());
+    if (axis.norm() < 1e-9) n.failKey("shaft_axis", "must not be zero");
+    t.shaft_tool = axis.normalized();
+  }
   for (const auto& seg : t.motion) {
     if (seg.kind == MotionKind::Pivot && !seg.tip_tool && !t.tip_tool) {
       n.fail("pivots without a tip: give the tool's 'tip_mm' or the pivot segment's 'tip_mm'");
     }
+    if (seg.kind == MotionKind::Spin && !t.tip_tool) n.fail("spins without a tip: give the tool's 'tip_mm'");
     const bool by_tip = seg.kind == MotionKind::TouchLandmarks || seg.kind == MotionKind::TraceBone ||
                         (seg.pose_of == PoseOf::Tip && seg.pose);
     if (by_tip && !t.tip_tool) n.fail("places its tip (touch_landmarks, trace_bone, pose_of tip) without 'tip_mm'");
@@ -503,13 +516,20 @@ RobotSpec readRobot(const Node& n) {
     }
   }
   for (const auto& w : n.array("hand_guided")) {
-    w.allow({"at_s", "joints_deg", "pivot_drill", "duration_s"});
+    w.allow({"at_s", "joints_deg", "pivot_drill", "spin_drill", "duration_s"});
     RobotSpec::GuidedWaypoint waypoint;
     if (w.has("at_s")) waypoint.at_s = w.number("at_s", 0.0, 0.0, 86400.0);
-    if (w.has("joints_deg") == w.has("pivot_drill")) {
-      w.fail("needs exactly one of 'joints_deg' (6 numbers) or 'pivot_drill' ({\"amplitude_deg\": 20, \"cycles\": 2})");
+    if (static_cast<int>(w.has("joints_deg")) + static_cast<int>(w.has("pivot_drill")) +
+            static_cast<int>(w.has("spin_drill")) != 1) {
+      w.fail("needs exactly one of 'joints_deg' (6 numbers), 'pivot_drill' ({\"amplitude_deg\": 20, \"cycles\": 2}) "
+             "or 'spin_drill' ({\"amplitude_deg\": 60, \"cycles\": 1})");
     }
-    if (w.has("pivot_drill")) {
+    if (w.has("spin_drill")) {
+      const Node spin = w.child("spin_drill");
+      spin.allow({"amplitude_deg", "cycles"});
+      waypoint.spin_deg = spin.number("amplitude_deg", 60.0, 1.0, 170.0);
+      waypoint.spin_cycles = spin.integer("cycles", 1, 1, 100);
+    } else if (w.has("pivot_drill")) {
       const Node pivot = w.child("pivot_drill");
       pivot.allow({"amplitude_deg", "cycles"});
       waypoint.pivot_deg = pivot.number("amplitude_deg", 20.0, 1.0, 45.0);

@@ -240,6 +240,34 @@ std::string scoreSession(const std::filesystem::path& session_dir, const std::fi
     }
   }
 
+  // The tools' shafts: the stylus (spin-calibration) and the drill's axis (drill-spin-calibration).
+  for (const auto& [step, key, default_tool] :
+       {std::tuple{"spin-calibration", "spin_calibration", "Stylus"},
+        std::tuple{"drill-spin-calibration", "drill_spin_calibration", "Flange"}}) {
+    if (!(steps.contains(step) && steps[step].value("status", "") == "ok" && fromSimulatedRoom(steps[step]))) {
+      not_scored.push_back(std::string(step) + " (not run, failed, or not acquired from mrsns-sim)");
+      continue;
+    }
+    const Json& f = steps[step]["figures"];
+    const std::string tool = f.value("tool", default_tool);
+    const Json shafts = st.value("tool_shafts", Json::object());
+    if (!shafts.contains(tool + "ToTracker") || !f.contains("shaft_marker")) {
+      not_scored.push_back(std::string(step) + " (the truth has no shaft for " + tool + ")");
+      continue;
+    }
+    const Json& t = shafts[tool + "ToTracker"];
+    const Json& e = f["shaft_marker"];
+    const Eigen::Vector3d true_shaft(t[0].get<double>(), t[1].get<double>(), t[2].get<double>());
+    const Eigen::Vector3d estimate(e[0].get<double>(), e[1].get<double>(), e[2].get<double>());
+    const double angle = std::acos(std::clamp(true_shaft.normalized().dot(estimate.normalized()), -1.0, 1.0));
+    constexpr double kScrewLengthMm = 40.0;
+    scored[key] = {{"definition", "angle between the estimated and the true shaft direction in the tool's marker "
+                                  "frame; the lateral error it makes 40 mm along the shaft (a pedicle screw's length)"},
+                   {"tool", tool},
+                   {"shaft_error_deg", angle * 180.0 / M_PI},
+                   {"lateral_error_at_40mm_mm", kScrewLengthMm * std::sin(angle)}};
+  }
+
   if (steps.contains("us-temporal-calibration") && steps["us-temporal-calibration"].value("status", "") == "ok" &&
       fromSimulatedRoom(steps["us-temporal-calibration"]) && st.contains("video_lag_s")) {
     const double estimated_ms = steps["us-temporal-calibration"]["figures"].value("tracker_lag_ms", 0.0);

@@ -363,6 +363,18 @@ Eigen::Isometry3d World::toolPose(std::size_t index, double t) const {
         pose = p;
         break;
       }
+      case MotionKind::Spin: {
+        // About the shaft's line through the tip: the tip stays in the divot, the shaft keeps its direction.
+        const Eigen::Vector3d tip_tracker = from * tool.tip_tool.value_or(Eigen::Vector3d::Zero());
+        const Eigen::Vector3d axis_tracker = from.linear() * tool.shaft();
+        const double angle = seg.amplitude_deg * kDeg * std::sin(kTwoPi * seg.frequency_hz * local);
+        const Eigen::Matrix3d turn = Eigen::AngleAxisd(angle, axis_tracker).toRotationMatrix();
+        Eigen::Isometry3d p = from;
+        p.linear() = turn * from.linear();
+        p.translation() = tip_tracker + turn * (from.translation() - tip_tracker);
+        pose = p;
+        break;
+      }
       case MotionKind::UpDown: {
         Eigen::Isometry3d p = from;
         // The axis in the tool's frame, or in the segment's frame when one is named (up and down over a target).
@@ -543,15 +555,24 @@ std::string World::staticTruthJson() const {
                                 scenario_.robot.drill_tip_flange.z()};
   }
   nlohmann::json tips = nlohmann::json::object();
+  nlohmann::json shafts = nlohmann::json::object();
   for (const auto& tool : scenario_.tools) {
-    if (tool.tip_tool) tips[tool.name] = {tool.tip_tool->x(), tool.tip_tool->y(), tool.tip_tool->z()};
+    if (!tool.tip_tool) continue;
+    tips[tool.name] = {tool.tip_tool->x(), tool.tip_tool->y(), tool.tip_tool->z()};
+    const Eigen::Vector3d shaft = tool.shaft();
+    shafts[tool.name] = {shaft.x(), shaft.y(), shaft.z()};
   }
   if (scenario_.robot.enabled) {
-    // The drill's tip in its marker's frame: what pivoting the drill calibrates.
-    const Eigen::Vector3d tip = scenario_.robot.flange_T_marker.inverse() * scenario_.robot.drill_tip_flange;
+    // The drill's tip in its marker's frame: what pivoting the drill calibrates; its axis (from the flange to
+    // the tip): what spinning it calibrates.
+    const Eigen::Isometry3d marker_T_flange = scenario_.robot.flange_T_marker.inverse();
+    const Eigen::Vector3d tip = marker_T_flange * scenario_.robot.drill_tip_flange;
     tips[scenario_.robot.marker_tool] = {tip.x(), tip.y(), tip.z()};
+    const Eigen::Vector3d axis = marker_T_flange.linear() * scenario_.robot.drill_tip_flange.normalized();
+    shafts[scenario_.robot.marker_tool] = {axis.x(), axis.y(), axis.z()};
   }
   j["tool_tips_mm"] = tips;
+  j["tool_shafts"] = shafts;
   if (scenario_.hmd.cube.enabled) {
     const auto& c = scenario_.hmd.cube;
     j["hmd_cube_operator"] = {{"depth_bias_mm", c.depth_bias_mm},

@@ -58,6 +58,9 @@ Json statsJson(const std::vector<double>& values);
 StepResult runConnectDevices(Session& session, const Json& params, const StepContext& context);
 StepResult runPivotCalibration(Session& session, const Json& params, const StepContext& context);
 StepResult runDrillCalibration(Session& session, const Json& params, const StepContext& context);
+/// spin-calibration (the stylus) and drill-spin-calibration (the drill): the shaft from turning the tool about it.
+StepResult runSpinCalibration(Session& session, const Json& params, const StepContext& context);
+StepResult runDrillSpinCalibration(Session& session, const Json& params, const StepContext& context);
 StepResult runUsPhantomRegistration(Session& session, const Json& params, const StepContext& context);
 StepResult runUsSpatialCalibration(Session& session, const Json& params, const StepContext& context);
 StepResult runUsTemporalCalibration(Session& session, const Json& params, const StepContext& context);

@@ -6,6 +6,7 @@
 
 #include "controller_identity.h"
 #include "live_tracking_recording.h"
+#include "mrsns/registration/spin_calibration.h"
 
 namespace mrsns::workflow::detail {
 
@@ -69,8 +70,17 @@ void configureDrill(const Session& session, const Json& calibration, NavigationR
       matrixFromJson(transforms["MarkerToFlange"], "session.json steps.robot-calibration MarkerToFlange"));
   const Eigen::Isometry3d marker_T_tip(matrixFromJson(drill["figures"]["transforms"]["FlangeTipToFlange"],
                                                       "session.json steps.drill-calibration FlangeTipToFlange"));
-  Eigen::Isometry3d flange_T_tip = Eigen::Isometry3d::Identity();
-  flange_T_tip.translation() = flange_T_marker * marker_T_tip.translation();
+  // The drilling direction (the tip frame's z): the drill's own axis, from turning it about its axis.
+  const auto spin = session.step("drill-spin-calibration");
+  if (!spin.is_object() || spin.value("status", "") != "ok" || !spin.contains("figures") ||
+      !spin["figures"].contains("shaft_marker")) {
+    throw InvalidArgumentError("navigation: robot=ur needs the drill's axis: run drill-spin-calibration on this "
+                               "session first (the drill turned about its axis, its tip in the divot)");
+  }
+  const Json& shaft = spin["figures"]["shaft_marker"];
+  const Eigen::Vector3d shaft_marker(shaft.at(0).get<double>(), shaft.at(1).get<double>(), shaft.at(2).get<double>());
+  const Eigen::Isometry3d flange_T_tip =
+      flange_T_marker * registration::tipFrame(marker_T_tip.translation(), shaft_marker);
   ro.flange_T_marker = flange_T_marker;
   ro.flange_T_tip = flange_T_tip;
   // The tracker reports the marker the robot calibration calibrated.

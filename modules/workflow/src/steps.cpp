@@ -17,9 +17,15 @@ std::vector<StepInfo> listSteps() {
        "Tracker (simulated, PlusServer over OpenIGTLink, or playback of a PLUS recording): tools seen, rate, jitter"},
       {"pivot-calibration", "Tool pivot calibration", "preparation",
        "Tip of the stylus (or drill) from pivoting it in a divot, recorded live from the PlusServer"},
+      {"spin-calibration", "Tool spin calibration", "preparation",
+       "Shaft of the stylus from turning it about its shaft with the tip in the divot (after its pivot calibration): "
+       "the tip's whole frame, recorded live from the PlusServer"},
       {"drill-calibration", "Drill pivot calibration", "preparation",
        "Tip of the drill on the robot's flange (marker FlangeToTracker) from pivoting it by hand in a divot "
        "(freedrive), recorded live from the PlusServer"},
+      {"drill-spin-calibration", "Drill spin calibration", "preparation",
+       "Axis of the drill on the robot's flange from turning it about its axis with the tip in the divot (after the "
+       "drill's pivot calibration): the drilling direction navigation uses"},
       {"us-phantom-registration", "Ultrasound phantom registration", "preparation",
        "PhantomToReference from the N-wire phantom's landmarks touched with the calibrated stylus (fCal's phantom "
        "registration), recorded live from the PlusServer"},
@@ -48,6 +54,8 @@ StepResult runStep(Session& session, const std::string& step, const nlohmann::js
       {"connect-devices", detail::runConnectDevices},
       {"pivot-calibration", detail::runPivotCalibration},
       {"drill-calibration", detail::runDrillCalibration},
+      {"spin-calibration", detail::runSpinCalibration},
+      {"drill-spin-calibration", detail::runDrillSpinCalibration},
       {"us-phantom-registration", detail::runUsPhantomRegistration},
       {"us-spatial-calibration", detail::runUsSpatialCalibration},
       {"us-temporal-calibration", detail::runUsTemporalCalibration},

@@ -111,6 +111,10 @@ TrialResult runPhantomTrial(const TrialOptions& options) {
     nlohmann::json registration = at_room;
     registration["duration_s"] = 120.0;
     plan.push_back({"pivot-calibration", pivot});
+    // Then the operator turns the stylus about its shaft, the tip still in the divot.
+    nlohmann::json spin = at_room;
+    spin["duration_s"] = 30.0;
+    plan.push_back({"spin-calibration", spin});
     plan.push_back({"registration", registration});
     // The N-wire phantom: its landmarks touched, then the probe swept over its wires (fCal's workflow).
     nlohmann::json phantom = at_room;
@@ -133,13 +137,17 @@ TrialResult runPhantomTrial(const TrialOptions& options) {
     robot["ur_dashboard_port"] = ports.value("dashboard", 29999);
     robot["seed"] = seed;
     plan.push_back({"robot-calibration", robot});
-    // Then the drill's tip: the scenario's operator pivots the drill by hand (freedrive) from 205 s.
+    // Then the drill's tip: the scenario's operator pivots the drill by hand (freedrive) from 205 s, then spins it.
     nlohmann::json drill = at_room;
     drill["duration_s"] = 90.0;
     // The headset's calibration needs its wearer: a room whose headset nobody operates keeps the in-process one.
     const bool headset =
         room->endpoints().contains("hmd_port") && room->endpoints().value("hmd_cube_operator", false);
-    plan.push_back({"drill-calibration", drill, false, !headset});
+    plan.push_back({"drill-calibration", drill});
+    // And turns the drill about its axis (the drilling direction navigation uses).
+    nlohmann::json drill_spin = at_room;
+    drill_spin["duration_s"] = 30.0;
+    plan.push_back({"drill-spin-calibration", drill_spin, false, !headset});
     if (headset) {
       // The headset's wearer lines the tracked cube up with its hologram, view after view, when asked; then the
       // patient's fiducials are shown through the new calibration (the overlay the scorer measures at the

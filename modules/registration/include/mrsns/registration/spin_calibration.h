@@ -29,6 +29,13 @@ struct SpinResult {
   double axis_distinctness = 0.0;
 };
 
+/// The tool tip's frame from a pivot and a spin calibration, as marker_T_tip
+/// (PLUS's convention): origin at the tip, z along the shaft pointing away
+/// from the marker (points ahead of the tip have positive z), x the marker's x
+/// made perpendicular to the shaft (its y when the shaft lies along its x).
+/// Throws InvalidArgumentError for a zero shaft.
+Eigen::Isometry3d tipFrame(const Eigen::Vector3d& tip_marker, const Eigen::Vector3d& shaft_marker);
+
 /// Throws ComputationError when the tool did not spin enough or not about
 /// one axis.
 SpinResult calibrateSpin(std::span<const Eigen::Isometry3d> tracker_T_marker, const SpinOptions& options = {},

@@ -27,7 +27,7 @@ enum class PoseOf { Tool, Image, Tip };
 /// TouchLandmarks and TraceBone are what a surgeon does for a registration;
 /// the world expands them into holds and moves of the tool's tip once it
 /// knows the patient (its fiducials, its bone surface).
-enum class MotionKind { Hold, Move, Sweep, Pivot, UpDown, TouchLandmarks, TraceBone };
+enum class MotionKind { Hold, Move, Sweep, Pivot, Spin, UpDown, TouchLandmarks, TraceBone };
 
 /// A landmark touched at the wrong place (a fault of a registration).
 struct MisplacedTouch {
@@ -47,8 +47,8 @@ struct MotionSegment {
   int cycles = 1;  ///< sweep: round trips
   /// pivot: the tip that stays put (tool frame); absent: the tool's tip_mm.
   std::optional<Eigen::Vector3d> tip_tool;
-  double amplitude_deg = 20.0;                           ///< pivot: swing; up_down: unused
-  double frequency_hz = 0.25;                            ///< pivot and up_down
+  double amplitude_deg = 20.0;                           ///< pivot: swing; spin: turn each way about the shaft
+  double frequency_hz = 0.25;                            ///< pivot, spin and up_down
   bool one_axis = false;                                 ///< pivot about one axis only (a degenerate acquisition)
   double amplitude_mm = 10.0;                            ///< up_down
   Eigen::Vector3d axis_tool = Eigen::Vector3d::UnitZ();  ///< up_down direction (tool frame)
@@ -95,6 +95,13 @@ struct ToolSpec {
   HandModel hand;
   /// Tool tip in marker coordinates (truth, for scoring pivot calibration).
   std::optional<Eigen::Vector3d> tip_tool;
+  /// The shaft's direction in marker coordinates, towards the tip (truth, for scoring spin calibration): what a
+  /// spin turns the tool about. Absent: from the marker's origin to the tip (a marker on the shaft's line).
+  std::optional<Eigen::Vector3d> shaft_tool;
+  [[nodiscard]] Eigen::Vector3d shaft() const {
+    if (shaft_tool) return *shaft_tool;
+    return tip_tool && tip_tool->norm() > 0.0 ? Eigen::Vector3d(tip_tool->normalized()) : Eigen::Vector3d::UnitZ();
+  }
 };
 
 /// A sphere that blocks the camera's view (the operator's head or hand).
@@ -221,13 +228,17 @@ struct RobotSpec {
   /// joints). A waypoint is either joints (rad) reached with a minimum-jerk profile over its duration, or a
   /// pivot of the drill about its tip held in a divot: the drill's axis circles a cone of `pivot_deg` half-angle
   /// `pivot_cycles` times over the duration (ramped in over the first quarter turn and out over the last),
-  /// back to where it began. While guided, the arm follows the hand, not the controller's commands; after the
+  /// back to where it began; or a spin of the drill about its axis (the line from the flange to its tip). While guided, the arm follows the hand, not the controller's commands; after the
   /// waypoint the controller has it again.
   struct GuidedWaypoint {
     std::optional<double> at_s;
     std::array<double, 6> joints{};
     double pivot_deg = 0.0;  ///< > 0: a drill pivot (joints unused)
     int pivot_cycles = 2;
+    /// > 0: the drill turned back and forth this far about its own axis, its tip held in the divot (a spin
+    /// calibration; joints unused), `spin_cycles` times over the duration.
+    double spin_deg = 0.0;
+    int spin_cycles = 1;
     double duration_s = 1.0;
   };
   std::vector<GuidedWaypoint> hand_guided;

@@ -1,0 +1,199 @@
+// The spin-calibration step on recordings with a known shaft (synthetic ground
+// truth): it finds the stretch that is a spin after a pivot, gives the shaft
+// within what the orientation noise allows, and refuses a tilt about the tip,
+// a tip that leaves the divot and too small a turn. Navigation driving a UR
+// with a PlusServer's tracking refuses a session without the drill's axis.
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+#include <random>
+
+#include "mrsns/core/error.h"
+#include "mrsns/io/sequence_file.h"
+#include "mrsns/workflow/steps.h"
+#include "test_data.h"
+
+namespace mrsns::workflow {
+namespace {
+
+constexpr double kSpinDeg = 3.14159265358979323846 / 180.0;
+const Eigen::Vector3d kStylusTip(0.0, 0.0, -160.0);
+// 2 deg off the line from the marker to the tip, as a marker beside the shaft puts it.
+const Eigen::Vector3d kStylusShaft = Eigen::Vector3d(0.03, -0.02, -1.0).normalized();
+
+enum class Motion { Pivot, Spin, OneAxisTilt, SlidingSpin, SmallSpin };
+
+/// tracker_T_stylus at t (s) for a tip resting at (100, 50, -1300) in the tracker.
+Eigen::Isometry3d poseAt(Motion m, double t) {
+  Eigen::Isometry3d start = Eigen::Isometry3d::Identity();
+  start.linear() = Eigen::AngleAxisd(0.3, Eigen::Vector3d(1, 2, 0).normalized()).toRotationMatrix();
+  start.translation() = Eigen::Vector3d(100, 50, -1300) - start.linear() * kStylusTip;
+  const Eigen::Vector3d tip_tracker = start * kStylusTip;
+  Eigen::Matrix3d turn = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d slide = Eigen::Vector3d::Zero();
+  const double phase = 2.0 * 3.14159265358979323846 * 0.2 * t;
+  switch (m) {
+    case Motion::Pivot:
+      turn = Eigen::AngleAxisd(25 * kSpinDeg * std::sin(phase), start.linear() * Eigen::Vector3d::UnitX()) *
+             Eigen::AngleAxisd(25 * kSpinDeg * std::sin(1.5 * phase + 0.7), start.linear() * Eigen::Vector3d::UnitY());
+      break;
+    case Motion::Spin: turn = Eigen::AngleAxisd(60 * kSpinDeg * std::sin(phase), start.linear() * kStylusShaft); break;
+    case Motion::SmallSpin: turn = Eigen::AngleAxisd(10 * kSpinDeg * std::sin(phase), start.linear() * kStylusShaft); break;
+    case Motion::OneAxisTilt:
+      turn = Eigen::AngleAxisd(60 * kSpinDeg * std::sin(phase), start.linear() * Eigen::Vector3d::UnitX());
+      break;
+    case Motion::SlidingSpin:
+      turn = Eigen::AngleAxisd(60 * kSpinDeg * std::sin(phase), start.linear() * kStylusShaft);
+      slide = Eigen::Vector3d(8.0 * std::sin(phase), 0.0, 0.0);  // the tip slides out of the divot and back
+      break;
+  }
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.linear() = turn * start.linear();
+  pose.translation() = tip_tracker + slide - pose.linear() * kStylusTip;
+  return pose;
+}
+
+/// A tracker buffer at 60 Hz: the stylus (0.05 deg, 0.12 mm RMS noise per sample, a tracker's) and the
+/// reference at the identity, through the segments in turn.
+std::filesystem::path writeRecording(const std::filesystem::path& file, const std::vector<std::pair<Motion, double>>& plan,
+                                     unsigned seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> angle(0.0, 0.05 * kSpinDeg / std::sqrt(3.0)), offset(0.0, 0.12 / std::sqrt(3.0));
+  TrackedSequence sequence;
+  double t0 = 0.0;
+  for (const auto& [motion, duration] : plan) {
+    for (double t = 0.0; t < duration; t += 1.0 / 60.0) {
+      Eigen::Isometry3d pose = poseAt(motion, t);
+      const Eigen::Vector3d w(angle(rng), angle(rng), angle(rng));
+      pose.linear() = pose.linear() * Eigen::AngleAxisd(w.norm(), w.normalized()).toRotationMatrix();
+      pose.translation() += Eigen::Vector3d(offset(rng), offset(rng), offset(rng));
+      TrackedFrame frame;
+      frame.timestamp = 100.0 + t0 + t;
+      frame.transforms["StylusToTracker"] = FrameTransform{pose.matrix(), TransformStatus::Ok};
+      frame.transforms["ReferenceToTracker"] = FrameTransform{Eigen::Matrix4d::Identity(), TransformStatus::Ok};
+      sequence.frames.push_back(std::move(frame));
+    }
+    t0 += duration;
+  }
+  io::writeSequence(file, sequence);
+  return file;
+}
+
+Session sessionWithTip(const std::string& name) {
+  Session session = Session::create(test::scratchDirectory(name) / "session");
+  const Eigen::Matrix4d marker_T_tip = Eigen::Affine3d(Eigen::Translation3d(kStylusTip)).matrix();
+  nlohmann::json m = nlohmann::json::array();
+  for (int r = 0; r < 4; ++r) {
+    for (int c = 0; c < 4; ++c) m.push_back(marker_T_tip(r, c));
+  }
+  session.recordStep("pivot-calibration",
+                     {{"status", "ok"}, {"figures", {{"transforms", {{"StylusTipToStylus", m}}}}}, {"outputs", {}}});
+  return session;
+}
+
+StepResult spinFromFile(Session& session, const std::filesystem::path& recording) {
+  return runStep(session, "spin-calibration", {{"source", "file"}, {"recording", recording.string()}}, {});
+}
+
+Eigen::Vector3d shaftOf(const StepResult& r) {
+  const auto& s = r.figures.at("shaft_marker");
+  return {s[0].get<double>(), s[1].get<double>(), s[2].get<double>()};
+}
+
+TEST(SpinStep, AfterAPivotTheSpinIsFoundAndItsShaftIsWithinTheNoise) {
+  for (unsigned seed : {1u, 2u, 3u}) {
+    SCOPED_TRACE(seed);
+    Session session = sessionWithTip("spin-step-" + std::to_string(seed));
+    const auto file = writeRecording(session.resolve("spin.mhd"), {{Motion::Pivot, 6.0}, {Motion::Spin, 6.0}}, seed);
+    const auto r = spinFromFile(session, file);
+    ASSERT_TRUE(r.ok) << r.summary;
+    // The stretch found lies in the spin (its first 6 s at 60 Hz are the pivot).
+    EXPECT_GE(r.figures["window"]["first_frame"].get<int>(), 6 * 60 - 1);
+    // 0.05 deg per sample over ~180 poses turning up to ~100 deg apart: the axis to a few hundredths of a degree.
+    const double error = std::acos(std::min(1.0, shaftOf(r).dot(kStylusShaft))) / kSpinDeg;
+    EXPECT_LT(error, 0.1) << "shaft error, deg";
+    EXPECT_NEAR(r.figures["shaft_to_tip_line_deg"].get<double>(), std::acos(-kStylusShaft.z()) / kSpinDeg, 0.1);
+    // The tip frame: at the tip, z along the shaft, a rotation.
+    Eigen::Matrix4d frame;
+    const auto& j = r.figures["transforms"]["StylusTipToStylus"];
+    for (int i = 0; i < 16; ++i) frame(i / 4, i % 4) = j[static_cast<std::size_t>(i)].get<double>();
+    EXPECT_LT((frame.block<3, 1>(0, 3) - kStylusTip).norm(), 1e-9);
+    EXPECT_LT((frame.block<3, 1>(0, 2) - shaftOf(r)).norm(), 1e-12);
+    const double det = frame.block<3, 3>(0, 0).determinant();
+    EXPECT_NEAR(det, 1.0, 1e-12);
+    EXPECT_TRUE(std::filesystem::exists(session.resolve("spin-calibration/StylusTipToStylus.tfm")));
+  }
+}
+
+TEST(SpinStep, ATiltAboutTheTipALeavingTipAndASmallTurnAreRefusedSayingWhy) {
+  Session session = sessionWithTip("spin-step-refusals");
+  const auto tilt = spinFromFile(session, writeRecording(session.resolve("tilt.mhd"), {{Motion::OneAxisTilt, 8}}, 4));
+  EXPECT_FALSE(tilt.ok);
+  EXPECT_NE(tilt.summary.find("tilts the shaft"), std::string::npos) << tilt.summary;
+  const auto slide =
+      spinFromFile(session, writeRecording(session.resolve("slide.mhd"), {{Motion::SlidingSpin, 8}}, 5));
+  EXPECT_FALSE(slide.ok);
+  EXPECT_NE(slide.summary.find("keep it in the divot"), std::string::npos) << slide.summary;
+  const auto small = spinFromFile(session, writeRecording(session.resolve("small.mhd"), {{Motion::SmallSpin, 8}}, 6));
+  EXPECT_FALSE(small.ok);
+  EXPECT_NE(small.summary.find("turned only"), std::string::npos) << small.summary;
+  const auto pivot = spinFromFile(session, writeRecording(session.resolve("pivot.mhd"), {{Motion::Pivot, 8}}, 7));
+  EXPECT_FALSE(pivot.ok);
+  EXPECT_NE(pivot.summary.find("is a spin"), std::string::npos) << pivot.summary;
+  // Every refusal is recorded in the session, and the recording it read is untouched.
+  EXPECT_EQ(session.step("spin-calibration")["status"], "failed");
+  EXPECT_TRUE(std::filesystem::exists(session.resolve("pivot.mhd")));
+}
+
+TEST(SpinStep, ATipIsNeededAndBadParametersAreRefused) {
+  Session session = Session::create(test::scratchDirectory("spin-step-params") / "session");
+  EXPECT_THROW(runStep(session, "spin-calibration", {{"source", "file"}, {"recording", "x.mhd"}}, {}),
+               InvalidArgumentError);
+  Session with_tip = sessionWithTip("spin-step-params2");
+  EXPECT_THROW(runStep(with_tip, "spin-calibration", {{"window_s", 0.1}}, {}), InvalidArgumentError);
+  EXPECT_THROW(runStep(with_tip, "spin-calibration", {{"max_shaft_to_tip_line_deg", 120}}, {}), InvalidArgumentError);
+  EXPECT_THROW(runStep(with_tip, "spin-calibration", {{"source", "usb"}}, {}), InvalidArgumentError);
+  EXPECT_THROW(runStep(with_tip, "spin-calibration", {{"tip_mm", "1,2"}}, {}), InvalidArgumentError);
+  // The drill's spin asks for the drill's pivot.
+  try {
+    runStep(with_tip, "drill-spin-calibration", {{"source", "file"}, {"recording", "x.mhd"}}, {});
+    ADD_FAILURE() << "no FlangeTipToFlange in the session";
+  } catch (const InvalidArgumentError& e) {
+    EXPECT_NE(std::string(e.what()).find("drill-calibration"), std::string::npos) << e.what();
+  }
+}
+
+nlohmann::json matrixArray(const Eigen::Matrix4d& m) {
+  nlohmann::json j = nlohmann::json::array();
+  for (int r = 0; r < 4; ++r) {
+    for (int c = 0; c < 4; ++c) j.push_back(m(r, c));
+  }
+  return j;
+}
+
+TEST(SpinStep, NavigationDrivingAUrWithAPlusServerRefusesASessionWithoutTheDrillsAxis) {
+  Session session = Session::create(test::scratchDirectory("spin-step-navigation") / "session");
+  const Eigen::Matrix4d identity = Eigen::Matrix4d::Identity();
+  Eigen::Matrix4d tip = identity;
+  tip(2, 3) = 110.0;
+  session.recordStep("robot-calibration",
+                     {{"status", "ok"},
+                      {"params", {{"source", "ur"}, {"marker", "FlangeToTracker"}}},
+                      {"figures",
+                       {{"simulated", false},
+                        {"transforms", {{"RobotBaseToTracker", matrixArray(identity)}, {"MarkerToFlange", matrixArray(identity)}}}}},
+                      {"outputs", nlohmann::json::array()}});
+  session.recordStep("drill-calibration", {{"status", "ok"},
+                                           {"figures", {{"transforms", {{"FlangeTipToFlange", matrixArray(tip)}}}}},
+                                           {"outputs", nlohmann::json::array()}});
+  try {
+    runStep(session, "navigation",
+            {{"robot", "ur"}, {"source", "plus"}, {"port", 1}, {"ur_host", "127.0.0.1"}, {"duration_s", 1}}, {});
+    ADD_FAILURE() << "navigation ran without the drill's axis";
+  } catch (const InvalidArgumentError& e) {
+    EXPECT_NE(std::string(e.what()).find("drill-spin-calibration"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace mrsns::workflow
