@@ -109,13 +109,14 @@ class RobotSimProcess {
 };
 
 TEST(CliNavigationUr, AgainstTheRobotSimulatorATrackerLossStopsTheControllersArm) {
-  // robot-sim binds 29999, 30002, 30003, 30004 + offset: offset from a port that was just free.
+  // robot-sim binds 29999, 30002, 30003, 30004 + offset: four ports free now, below the ephemeral range.
   std::unique_ptr<RobotSimProcess> sim;
   int rtde = 0;
   for (int attempt = 0; attempt < 3 && !sim; ++attempt) {
-    rtde = closedPort();
-    if (rtde < 30004 || rtde - 30004 > 35000) continue;
-    sim = std::make_unique<RobotSimProcess>(rtde - 30004);
+    const int offset = freeUrPortOffset();
+    if (offset <= 0) continue;
+    rtde = 30004 + offset;
+    sim = std::make_unique<RobotSimProcess>(offset);
     const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(10);
     while (sim->alive() && !accepts(rtde) && std::chrono::steady_clock::now() < end) {
       std::this_thread::sleep_for(std::chrono::milliseconds(20));

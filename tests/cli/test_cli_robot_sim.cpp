@@ -95,9 +95,8 @@ TEST(CliRobotSim, StatusOfTheSimulatorOverLoopback) {
   CliResult status;
   std::string why;
   for (int attempt = 0; attempt < 8 && status.exit_code != 0; ++attempt) {
-    const int rtde = mrsns::test::closedPort();
-    if (rtde < 30004 || rtde - 30004 > 35000) continue;
-    port_offset = rtde - 30004;
+    port_offset = mrsns::test::freeUrPortOffset();
+    if (port_offset <= 0) continue;
     const auto offset = std::to_string(port_offset);
     sim = std::make_unique<Background>(
         std::vector<std::string>{"robot-sim", "--port-offset", offset, "--duration", "30", "--json"});

@@ -139,15 +139,19 @@ std::optional<SpinWindow> spinEndingAt(const std::vector<FramePose>& poses, std:
   while (first > 0 && poses[last].timestamp - poses[first - 1].timestamp <= o.window_s) --first;
   auto result = calibrateStretch(poses, first, last, o, tip, search);
   if (!result) return std::nullopt;
-  const auto deviation = shaftDeviations(poses, first, last, result->shaft_marker);
-  std::vector<double> sorted = deviation;
-  std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2), sorted.end());
-  // Three times the typical sway, and never below what the tracker's orientation noise alone gives.
-  const double keep_deg = std::max(kMinTrimDeg, 3.0 * sorted[sorted.size() / 2]);
+  // A tilted end biases the shaft, which makes every turn look tilted; so trim, recalibrate and trim again until
+  // the stretch stops shrinking (a few rounds: each brings the shaft closer to the clean turns').
   std::size_t kept_first = first, kept_last = last;
-  while (kept_first < kept_last && deviation[kept_first - first] > keep_deg) ++kept_first;
-  while (kept_last > kept_first && deviation[kept_last - first] > keep_deg) --kept_last;
-  if (kept_first != first || kept_last != last) {
+  for (int round = 0; round < 5; ++round) {
+    const auto deviation = shaftDeviations(poses, kept_first, kept_last, result->shaft_marker);
+    std::vector<double> sorted = deviation;
+    std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2), sorted.end());
+    // Three times the typical sway, and never below what the tracker's orientation noise alone gives.
+    const double keep_deg = std::max(kMinTrimDeg, 3.0 * sorted[sorted.size() / 2]);
+    const std::size_t was_first = kept_first, was_last = kept_last;
+    while (kept_first < kept_last && deviation[kept_first - was_first] > keep_deg) ++kept_first;
+    while (kept_last > kept_first && deviation[kept_last - was_first] > keep_deg) --kept_last;
+    if (kept_first == was_first && kept_last == was_last) break;
     result = calibrateStretch(poses, kept_first, kept_last, o, tip, search);
     if (!result) return std::nullopt;
   }
@@ -248,6 +252,7 @@ StepResult runSpinStep(Session& session, const Json& params, const StepContext& 
                                       "[10, 170], max_axis_rms_deg in (0, 20], max_tip_travel_mm > 0, "
                                       "max_shaft_to_tip_line_deg in (0, 90], max_shaft_sway_deg in (0, 45]");
   }
+  checkCancel(context);  // cancelled before it started: nothing is asked of the session yet
   const Eigen::Vector3d tip = sessionTip(session, p, step, o.tool, pivot_step);
   const std::string transform = o.transform();
   const std::string source = p.text("source", "plus");

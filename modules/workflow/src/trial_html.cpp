@@ -166,6 +166,16 @@ std::string renderTrialHtml(const nlohmann::json& report) {
                      " ms against the room's true " +
                      number(at(report, "simulated_room/score/scored/us_temporal_calibration/true_ms")) + " ms"
                : "not acquired in a room"},
+      {"Tool tips in the simulated room, pivot calibration error: stylus / drill (mm)",
+       number(at(report, "simulated_room/score/scored/pivot_calibration/tip_error_mm")) + " / " +
+           number(at(report, "simulated_room/score/scored/drill_calibration/tip_error_mm")),
+       "&ndash;", "each pivoted about its tip in a divot (the drill by hand, the arm in freedrive); scored from outside"},
+      {"Tool shafts in the simulated room, spin calibration error: stylus / drill (deg)",
+       number(at(report, "simulated_room/score/scored/spin_calibration/shaft_error_deg")) + " / " +
+           number(at(report, "simulated_room/score/scored/drill_spin_calibration/shaft_error_deg")),
+       "&ndash;",
+       "each turned about its shaft with the tip in the divot; the drill's axis is the direction navigation drills "
+       "along; scored from outside"},
       {"Registration, landmark FRE (mm)", number(at(steps, "registration" + fig + "landmarks/fre_rms_mm")), "&ndash;",
        live_registration ? "fiducial screws touched with the tracked stylus in the simulated room (noise model below)"
                          : "8 fiducial screws, 0.5 mm FLE (in-process simulated patient)"},
