@@ -1,8 +1,8 @@
 // The spin-calibration step acquired live from mrsns-sim, from outside: after
 // its pivot calibration the stylus is turned back and forth about its shaft
 // (60 deg each way at 0.2 Hz) with the tip in the divot. The step records the
-// stream, finds the first stretch that is a spin (the recording starts while
-// the stylus still pivots), and gives the shaft in the marker's frame;
+// stream, finds the stretch that is a spin most cleanly (the recording starts
+// while the stylus still pivots), and gives the shaft in the marker's frame;
 // `mrsns-sim score` judges it against the scenario's shaft, which is 2 deg off
 // the line from the marker to the tip and which the workstation never sees.
 //
@@ -94,7 +94,6 @@ TEST(SimSpin, TheLiveSpinFindsTheShaftOverSeedsAndTheOfflineVerbAgrees) {
     }
     // An occlusion falls in every three seconds of the spin: its frames are left out and counted.
     EXPECT_GT(f["recorded"]["skipped_missing"].get<int>() + f["recorded"]["skipped_invalid"].get<int>(), 0);
-    EXPECT_GE(f["spin_deg"].get<double>(), 45.0);
 
     // Scored from outside. The axis of rotations that differ by up to ~100 deg, each 0.05 deg noisy, over ~150
     // poses: a few hundredths of a degree (0.005-0.026 over seeds 1-3); the bound is about four times that.
@@ -168,6 +167,7 @@ TEST(SimSpin, APivotIsNotASpinAndWithoutAPivotCalibrationTheStepSaysWhatToRunFir
   ASSERT_EQ(again.exit_code, 0) << again.err;
   const auto f = Json::parse(again.out)["figures"];
   EXPECT_EQ(f["window"]["first_frame"], run.figures["window"]["first_frame"]);
+  EXPECT_EQ(f["window"]["last_frame"], run.figures["window"]["last_frame"]);
   for (std::size_t i = 0; i < 3; ++i) {
     EXPECT_NEAR(f["shaft_marker"][i].get<double>(), run.figures["shaft_marker"][i].get<double>(), 1e-12);
   }

@@ -48,6 +48,9 @@ TEST(Scenario, UnknownKeysAreRefusedWithTheirPath) {
 TEST(Scenario, BadValuesAreRefusedWithWhatIsAllowed) {
   EXPECT_NE(messageOf(minimal("", R"(, "tracker": {"rate_hz": 0})")).find("outside"), std::string::npos);
   EXPECT_NE(messageOf(minimal(R"(, "motion": [{"kind": "twirl"}])")).find("use one of"), std::string::npos);
+  // A shaft pointing away from the tip would score a perfect spin calibration 180 deg off.
+  EXPECT_NE(messageOf(minimal(R"(, "tip_mm": [0, 0, -160], "shaft_axis": [0, 0, 1])")).find("towards the tip"),
+            std::string::npos);
   EXPECT_NE(messageOf(R"({"format": "mrsns-scenario/9", "tools": []})").find("mrsns-scenario/1"), std::string::npos);
   EXPECT_NE(messageOf("{not json").find("not valid JSON"), std::string::npos);
   EXPECT_NE(messageOf(R"({"format": "mrsns-scenario/1", "tools": [{"name": "Stylus"}]})").find("PLUS transform"),

@@ -23,8 +23,17 @@ const Eigen::Vector3d kStylusShaft = Eigen::Vector3d(0.03, -0.02, -1.0).normaliz
 
 enum class Motion { Pivot, EaseOut, Spin, OneAxisTilt, SlidingSpin, SmallSpin };
 
-/// tracker_T_stylus at t (s) for a tip resting at (100, 50, -1300) in the tracker.
-Eigen::Isometry3d poseAt(Motion m, double t) {
+/// A tracked tool: its transform's name, its tip and its shaft in its marker's frame.
+struct SpunTool {
+  std::string transform = "StylusToTracker";
+  Eigen::Vector3d tip = kStylusTip;
+  Eigen::Vector3d shaft = kStylusShaft;
+};
+
+/// tracker_T_tool at t (s) for a tip resting at (100, 50, -1300) in the tracker.
+Eigen::Isometry3d poseAt(Motion m, double t, const SpunTool& tool) {
+  const Eigen::Vector3d& kStylusTip = tool.tip;
+  const Eigen::Vector3d& kStylusShaft = tool.shaft;
   Eigen::Isometry3d start = Eigen::Isometry3d::Identity();
   start.linear() = Eigen::AngleAxisd(0.3, Eigen::Vector3d(1, 2, 0).normalized()).toRotationMatrix();
   start.translation() = Eigen::Vector3d(100, 50, -1300) - start.linear() * kStylusTip;
@@ -60,20 +69,20 @@ Eigen::Isometry3d poseAt(Motion m, double t) {
 /// A tracker buffer at 60 Hz: the stylus (0.05 deg, 0.12 mm RMS noise per sample, a tracker's) and the
 /// reference at the identity, through the segments in turn.
 std::filesystem::path writeRecording(const std::filesystem::path& file, const std::vector<std::pair<Motion, double>>& plan,
-                                     unsigned seed) {
+                                     unsigned seed, const SpunTool& tool = {}) {
   std::mt19937 rng(seed);
   std::normal_distribution<double> angle(0.0, 0.05 * kSpinDeg / std::sqrt(3.0)), offset(0.0, 0.12 / std::sqrt(3.0));
   TrackedSequence sequence;
   double t0 = 0.0;
   for (const auto& [motion, duration] : plan) {
     for (double t = 0.0; t < duration; t += 1.0 / 60.0) {
-      Eigen::Isometry3d pose = poseAt(motion, t);
+      Eigen::Isometry3d pose = poseAt(motion, t, tool);
       const Eigen::Vector3d w(angle(rng), angle(rng), angle(rng));
       pose.linear() = pose.linear() * Eigen::AngleAxisd(w.norm(), w.normalized()).toRotationMatrix();
       pose.translation() += Eigen::Vector3d(offset(rng), offset(rng), offset(rng));
       TrackedFrame frame;
       frame.timestamp = 100.0 + t0 + t;
-      frame.transforms["StylusToTracker"] = FrameTransform{pose.matrix(), TransformStatus::Ok};
+      frame.transforms[tool.transform] = FrameTransform{pose.matrix(), TransformStatus::Ok};
       frame.transforms["ReferenceToTracker"] = FrameTransform{Eigen::Matrix4d::Identity(), TransformStatus::Ok};
       sequence.frames.push_back(std::move(frame));
     }
@@ -81,6 +90,14 @@ std::filesystem::path writeRecording(const std::filesystem::path& file, const st
   }
   io::writeSequence(file, sequence);
   return file;
+}
+
+nlohmann::json matrixArray(const Eigen::Matrix4d& m) {
+  nlohmann::json j = nlohmann::json::array();
+  for (int r = 0; r < 4; ++r) {
+    for (int c = 0; c < 4; ++c) j.push_back(m(r, c));
+  }
+  return j;
 }
 
 Session sessionWithTip(const std::string& name) {
@@ -145,6 +162,37 @@ TEST(SpinStep, APivotEasingIntoTheSpinIsTrimmedNotAveragedIn) {
   }
 }
 
+TEST(SpinStep, ADrillsMarkerBesideItsAxisIsJudgedFromTheFlangeOnceTheRobotCalibrationPlacedIt) {
+  // The drill's marker on a bracket 150 mm beside the axis: from the marker, the tip's line is 56 deg off the axis.
+  const SpunTool drill{"FlangeToTracker", Eigen::Vector3d(150.0, 0.0, 100.0), Eigen::Vector3d::UnitZ()};
+  Session session = Session::create(test::scratchDirectory("spin-step-drill") / "session");
+  Eigen::Matrix4d marker_T_tip = Eigen::Matrix4d::Identity();
+  marker_T_tip.block<3, 1>(0, 3) = drill.tip;
+  session.recordStep("drill-calibration",
+                     {{"status", "ok"},
+                      {"figures", {{"tool", "Flange"}, {"transforms", {{"FlangeTipToFlange", matrixArray(marker_T_tip)}}}}},
+                      {"outputs", nlohmann::json::array()}});
+  const auto file = writeRecording(session.resolve("drill.mhd"), {{Motion::Spin, 6.0}}, 11, drill);
+  const nlohmann::json params = {{"source", "file"}, {"recording", file.string()}};
+  const auto judged_from_marker = runStep(session, "drill-spin-calibration", params, {});
+  EXPECT_FALSE(judged_from_marker.ok);
+  EXPECT_NE(judged_from_marker.summary.find("max_shaft_to_tip_line_deg"), std::string::npos)
+      << judged_from_marker.summary;
+  // The robot calibration says where the flange is: the marker 150 mm beside the flange's axis, 40 mm up it.
+  Eigen::Matrix4d flange_T_marker = Eigen::Matrix4d::Identity();
+  flange_T_marker.block<3, 1>(0, 3) = Eigen::Vector3d(-150.0, 0.0, 40.0);
+  session.recordStep("robot-calibration",
+                     {{"status", "ok"},
+                      {"figures", {{"transforms", {{"MarkerToFlange", matrixArray(flange_T_marker)}}}}},
+                      {"outputs", nlohmann::json::array()}});
+  const auto r = runStep(session, "drill-spin-calibration", params, {});
+  ASSERT_TRUE(r.ok) << r.summary;
+  EXPECT_EQ(r.figures["shaft_line_from"], "the flange's origin");
+  EXPECT_LT(std::acos(std::min(1.0, shaftOf(r).z())) / kSpinDeg, 0.1) << "the axis, pointing towards the tip";
+  EXPECT_NE(r.figures["offline_command"].get<std::string>().find("--line-start 150 0 -40"), std::string::npos)
+      << r.figures["offline_command"];
+}
+
 TEST(SpinStep, ATiltAboutTheTipALeavingTipAndASmallTurnAreRefusedSayingWhy) {
   Session session = sessionWithTip("spin-step-refusals");
   const auto tilt = spinFromFile(session, writeRecording(session.resolve("tilt.mhd"), {{Motion::OneAxisTilt, 8}}, 4));
@@ -174,6 +222,23 @@ TEST(SpinStep, ATipIsNeededAndBadParametersAreRefused) {
   EXPECT_THROW(runStep(with_tip, "spin-calibration", {{"max_shaft_to_tip_line_deg", 120}}, {}), InvalidArgumentError);
   EXPECT_THROW(runStep(with_tip, "spin-calibration", {{"source", "usb"}}, {}), InvalidArgumentError);
   EXPECT_THROW(runStep(with_tip, "spin-calibration", {{"tip_mm", "1,2"}}, {}), InvalidArgumentError);
+  EXPECT_THROW(runStep(with_tip, "spin-calibration", {{"tip_mm", "1,2,3,4"}}, {}), InvalidArgumentError);
+  // A tip at the marker's origin cannot say which way the shaft points.
+  try {
+    runStep(with_tip, "spin-calibration", {{"tip_mm", "0,0,0.5"}}, {});
+    ADD_FAILURE() << "a tip 0.5 mm from the marker's origin was accepted";
+  } catch (const InvalidArgumentError& e) {
+    EXPECT_NE(std::string(e.what()).find("marker's origin"), std::string::npos) << e.what();
+  }
+  // A pivot calibration that failed since: its tip is gone, and the spin's own copy of it does not stand in.
+  with_tip.recordStep("spin-calibration", with_tip.step("pivot-calibration"));
+  with_tip.recordStep("pivot-calibration", {{"status", "failed"}, {"figures", nlohmann::json::object()}});
+  try {
+    runStep(with_tip, "spin-calibration", {{"source", "file"}, {"recording", "x.mhd"}}, {});
+    ADD_FAILURE() << "the failed pivot's tip was taken from elsewhere";
+  } catch (const InvalidArgumentError& e) {
+    EXPECT_NE(std::string(e.what()).find("from pivot-calibration"), std::string::npos) << e.what();
+  }
   // The drill's spin asks for the drill's pivot.
   try {
     runStep(with_tip, "drill-spin-calibration", {{"source", "file"}, {"recording", "x.mhd"}}, {});
@@ -183,13 +248,6 @@ TEST(SpinStep, ATipIsNeededAndBadParametersAreRefused) {
   }
 }
 
-nlohmann::json matrixArray(const Eigen::Matrix4d& m) {
-  nlohmann::json j = nlohmann::json::array();
-  for (int r = 0; r < 4; ++r) {
-    for (int c = 0; c < 4; ++c) j.push_back(m(r, c));
-  }
-  return j;
-}
 
 TEST(SpinStep, NavigationDrivingAUrWithAPlusServerRefusesASessionWithoutTheDrillsAxis) {
   Session session = Session::create(test::scratchDirectory("spin-step-navigation") / "session");
@@ -201,17 +259,33 @@ TEST(SpinStep, NavigationDrivingAUrWithAPlusServerRefusesASessionWithoutTheDrill
                       {"params", {{"source", "ur"}, {"marker", "FlangeToTracker"}}},
                       {"figures",
                        {{"simulated", false},
-                        {"transforms", {{"RobotBaseToTracker", matrixArray(identity)}, {"MarkerToFlange", matrixArray(identity)}}}}},
+                        {"transforms",
+                         {{"RobotBaseToTracker", matrixArray(identity)}, {"MarkerToFlange", matrixArray(identity)}}}}},
                       {"outputs", nlohmann::json::array()}});
-  session.recordStep("drill-calibration", {{"status", "ok"},
-                                           {"figures", {{"transforms", {{"FlangeTipToFlange", matrixArray(tip)}}}}},
-                                           {"outputs", nlohmann::json::array()}});
+  session.recordStep("drill-calibration",
+                     {{"status", "ok"},
+                      {"figures", {{"tool", "Flange"}, {"transforms", {{"FlangeTipToFlange", matrixArray(tip)}}}}},
+                      {"outputs", nlohmann::json::array()}});
+  const nlohmann::json navigation = {
+      {"robot", "ur"}, {"source", "plus"}, {"port", 1}, {"ur_host", "127.0.0.1"}, {"duration_s", 1}};
   try {
-    runStep(session, "navigation",
-            {{"robot", "ur"}, {"source", "plus"}, {"port", 1}, {"ur_host", "127.0.0.1"}, {"duration_s", 1}}, {});
+    runStep(session, "navigation", navigation, {});
     ADD_FAILURE() << "navigation ran without the drill's axis";
   } catch (const InvalidArgumentError& e) {
     EXPECT_NE(std::string(e.what()).find("drill-spin-calibration"), std::string::npos) << e.what();
+  }
+  // An axis spun about another tip (the drill re-clamped and pivoted again since): refused too.
+  session.recordStep("drill-spin-calibration", {{"status", "ok"},
+                                                {"figures",
+                                                 {{"tool", "Flange"},
+                                                  {"shaft_marker", {0.0, 0.0, 1.0}},
+                                                  {"tip_marker_mm", {0.0, 0.0, 118.0}}}},
+                                                {"outputs", nlohmann::json::array()}});
+  try {
+    runStep(session, "navigation", navigation, {});
+    ADD_FAILURE() << "navigation ran with an axis calibrated for another tip";
+  } catch (const InvalidArgumentError& e) {
+    EXPECT_NE(std::string(e.what()).find("run drill-spin-calibration again"), std::string::npos) << e.what();
   }
 }
 

@@ -70,6 +70,7 @@ Report runPivot(const PivotVerbOptions& options) {
 struct SpinVerbOptions {
   PoseSourceOptions source;
   std::vector<double> tip;
+  std::vector<double> line_start;
   double min_spin_deg = 30.0;
   std::string output;
 };
@@ -83,7 +84,19 @@ Report runSpin(const SpinVerbOptions& options) {
   if (!options.output.empty() && options.tip.empty()) {
     throw InvalidArgumentError("calibrate-spin --output needs --tip (the tip frame's origin, from calibrate-pivot)");
   }
-  const auto result = registration::calibrateSpin(loaded.poses, spin_options, options.tip.empty() ? nullptr : &tip);
+  Eigen::Vector3d line_start = Eigen::Vector3d::Zero();
+  if (!options.line_start.empty()) {
+    line_start = Eigen::Vector3d(options.line_start[0], options.line_start[1], options.line_start[2]);
+  }
+  // The shaft points towards the tip along the line from line_start (the marker's origin by default).
+  const Eigen::Vector3d towards_tip = tip - line_start;
+  if (!options.tip.empty() && !(towards_tip.norm() >= 1.0)) {
+    throw InvalidArgumentError("calibrate-spin: the tip is within 1 mm of " +
+                               std::string(options.line_start.empty() ? "the marker's origin" : "--line-start") +
+                               ": it cannot say which way the shaft points");
+  }
+  const auto result =
+      registration::calibrateSpin(loaded.poses, spin_options, options.tip.empty() ? nullptr : &towards_tip);
   Report report;
   report.json["verb"] = "calibrate-spin";
   report.json["poses"] = loaded.summary;
@@ -139,6 +152,10 @@ void registerCalibrateToolVerbs(CLI::App& app, GlobalOptions& options, VerbList&
       "its shaft");
   addPoseSourceOptions(*spin_cmd, spin->source, "StylusToReference");
   spin_cmd->add_option("--tip", spin->tip, "tip offset X Y Z (mm) from calibrate-pivot, to orient the shaft")
+      ->expected(3);
+  spin_cmd->add_option("--line-start", spin->line_start,
+                       "X Y Z (mm, marker frame): the shaft points towards --tip from here (default the marker's "
+                       "origin; a drill's flange origin when its marker sits beside the axis)")
       ->expected(3);
   spin_cmd->add_option("--min-spin-deg", spin->min_spin_deg, "smallest spin accepted, degrees")
       ->capture_default_str()

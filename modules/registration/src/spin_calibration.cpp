@@ -71,7 +71,8 @@ SpinResult calibrateSpin(std::span<const Eigen::Isometry3d> tracker_T_marker, co
 }
 
 Eigen::Isometry3d tipFrame(const Eigen::Vector3d& tip_marker, const Eigen::Vector3d& shaft_marker) {
-  if (!(shaft_marker.norm() > 1e-9) || !tip_marker.allFinite()) {
+  if (!tip_marker.allFinite()) throw InvalidArgumentError("tip frame: the tip must be a finite point");
+  if (!shaft_marker.allFinite() || !(shaft_marker.norm() > 1e-9)) {
     throw InvalidArgumentError("tip frame: the shaft direction must be a finite non-zero vector");
   }
   const Eigen::Vector3d z = shaft_marker.normalized();

@@ -297,7 +297,7 @@ MotionSegment readSegment(const Node& n) {
     case MotionKind::Spin:
       // Turning the tool between the fingers about its shaft, the tip in the divot.
       n.allow({"kind", "duration_s", "amplitude_deg", "frequency_hz"});
-      s.amplitude_deg = n.number("amplitude_deg", 60.0, 0.0, 170.0);
+      s.amplitude_deg = n.number("amplitude_deg", 60.0, 1.0, 170.0);
       s.frequency_hz = n.number("frequency_hz", s.frequency_hz, 1e-3, 5.0);
       break;
     case MotionKind::UpDown:
@@ -398,6 +398,10 @@ ToolSpec readTool(const Node& n) {
     const Eigen::Vector3d axis = n.vector3("shaft_axis", Eigen::Vector3d::UnitZ());
     if (axis.norm() < 1e-9) n.failKey("shaft_axis", "must not be zero");
     t.shaft_tool = axis.normalized();
+    if (t.tip_tool && t.shaft_tool->dot(*t.tip_tool) <= 0.0) {
+      n.failKey("shaft_axis", "must point from the marker towards the tip (its dot product with tip_mm is not "
+                              "positive): the scorer compares directions");
+    }
   }
   for (const auto& seg : t.motion) {
     if (seg.kind == MotionKind::Pivot && !seg.tip_tool && !t.tip_tool) {

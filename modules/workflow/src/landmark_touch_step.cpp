@@ -3,14 +3,22 @@
 
 namespace mrsns::workflow::detail {
 
-Eigen::Vector3d calibratedTip(const Session& session, const std::string& tool, const std::string& step) {
-  Eigen::Matrix4d marker_T_tip;
+Eigen::Vector3d pivotTip(const Session& session, const std::string& tool, const std::string& pivot_step,
+                         const std::string& step, const std::string& why) {
   const std::string name = tool + "TipTo" + tool;
-  if (!findRecordedTransform(session, name, marker_T_tip)) {
-    throw InvalidArgumentError(step + ": the session has no " + name + ": run pivot-calibration with tool=" + tool +
-                               " first (the tip is what touches the landmarks)");
+  const auto pivot = session.step(pivot_step);
+  const bool ok = pivot.is_object() && pivot.value("status", "") == "ok" && pivot.contains("figures") &&
+                  pivot["figures"].contains("transforms") && pivot["figures"]["transforms"].contains(name);
+  if (!ok) {
+    throw InvalidArgumentError(step + ": the session has no " + name + " from " + pivot_step + ": run " +
+                               pivot_step + " with tool=" + tool + " first (" + why + ")");
   }
-  return marker_T_tip.block<3, 1>(0, 3);
+  return matrixFromJson(pivot["figures"]["transforms"][name], "session.json steps." + pivot_step + " " + name)
+      .block<3, 1>(0, 3);
+}
+
+Eigen::Vector3d calibratedTip(const Session& session, const std::string& tool, const std::string& step) {
+  return pivotTip(session, tool, "pivot-calibration", step, "the tip is what touches the landmarks");
 }
 
 LiveTrackingOptions touchRecordingOptions(const Session& session, const Params& p, const std::string& step,

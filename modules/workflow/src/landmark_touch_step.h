@@ -16,6 +16,12 @@ namespace mrsns::workflow::detail {
 /// InvalidArgumentError naming `step` and the pivot calibration to run first.
 Eigen::Vector3d calibratedTip(const Session& session, const std::string& tool, const std::string& step);
 
+/// The tip of `tool` as `pivot_step` (pivot-calibration, drill-calibration) found it, that step having succeeded:
+/// never a copy another step keeps (a spin's tip frame) standing in for a pivot that failed since. Throws
+/// InvalidArgumentError naming `step`, `pivot_step` and `why` (what the tip is needed for).
+Eigen::Vector3d pivotTip(const Session& session, const std::string& tool, const std::string& pivot_step,
+                         const std::string& step, const std::string& why);
+
 /// A live touch acquisition's recording: the session's PlusServer (or the step's host/port), `duration_s`
 /// (default_duration_s, at most 1800 s), `connect_timeout_s`, recorded into a new "<step>/<stem>.mhd" whose
 /// name is returned in `recording`. Throws InvalidArgumentError for a `recording` parameter (that is

@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <thread>
 
 #include "controller_identity.h"
@@ -77,8 +78,16 @@ void configureDrill(const Session& session, const Json& calibration, NavigationR
     throw InvalidArgumentError("navigation: robot=ur needs the drill's axis: run drill-spin-calibration on this "
                                "session first (the drill turned about its axis, its tip in the divot)");
   }
-  const Json& shaft = spin["figures"]["shaft_marker"];
-  const Eigen::Vector3d shaft_marker(shaft.at(0).get<double>(), shaft.at(1).get<double>(), shaft.at(2).get<double>());
+  const Eigen::Vector3d shaft_marker = vector3(spin["figures"]["shaft_marker"], "the drill's axis (shaft_marker)");
+  // The axis belongs to this tip and this marker: a drill re-clamped and pivoted again needs its spin again.
+  const auto spun_tip = spin["figures"].contains("tip_marker_mm")
+                            ? vector3(spin["figures"]["tip_marker_mm"], "the drill spin's tip (tip_marker_mm)")
+                            : Eigen::Vector3d(Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity()));
+  if (!((spun_tip - marker_T_tip.translation()).norm() <= 0.5) ||
+      spin["figures"].value("tool", "") != drill["figures"].value("tool", "Flange")) {
+    throw InvalidArgumentError("navigation: the drill's axis was calibrated for another tip or marker than "
+                               "drill-calibration's: run drill-spin-calibration again after drill-calibration");
+  }
   const Eigen::Isometry3d flange_T_tip =
       flange_T_marker * registration::tipFrame(marker_T_tip.translation(), shaft_marker);
   ro.flange_T_marker = flange_T_marker;

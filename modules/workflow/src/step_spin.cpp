@@ -42,6 +42,8 @@ struct SpinStepOptions {
   double max_tip_travel_mm = 3.0;
   /// A shaft this far from the line marker -> tip is a tilt about the tip (a one-axis pivot), not a spin.
   double max_shaft_to_tip_line_deg = 45.0;
+  /// Where that line starts (marker frame): the marker's origin, or the flange's for the drill.
+  Eigen::Vector3d line_start = Eigen::Vector3d::Zero();
   [[nodiscard]] std::string transform() const { return tool + "To" + reference; }
 };
 
@@ -74,13 +76,27 @@ double tipTravel(const std::vector<FramePose>& poses, std::size_t first, std::si
   return worst;
 }
 
+/// The angle (deg) between the shaft and the line from `line_start` to the tip.
+double shaftToLineDeg(const Eigen::Vector3d& shaft, const Eigen::Vector3d& tip, const Eigen::Vector3d& line_start) {
+  const Eigen::Vector3d line = (tip - line_start).normalized();
+  return std::acos(std::clamp(shaft.dot(line), -1.0, 1.0)) / kDeg;
+}
+
 /// The spin of poses first..last, or why not (in `search`).
 std::optional<registration::SpinResult> calibrateStretch(const std::vector<FramePose>& poses, std::size_t first,
                                                          std::size_t last, const SpinStepOptions& o,
                                                          const Eigen::Vector3d& tip, SpinSearch& search) {
-  if (poses[last].timestamp - poses[first].timestamp < 0.8 * o.window_s ||
-      static_cast<int>(last - first + 1) < o.min_poses) {
-    search.why_not = "recording the first " + formatFixed(o.window_s, 0) + " s";
+  if (poses[last].timestamp - poses[first].timestamp < 0.8 * o.window_s) {
+    search.why_not = poses[last].timestamp - poses.front().timestamp < o.window_s
+                         ? "recording the first " + formatFixed(o.window_s, 0) + " s"
+                         : "the turn about the shaft lasted under " + formatFixed(0.8 * o.window_s, 1) +
+                               " s once its tilted ends were left out: keep turning it";
+    return std::nullopt;
+  }
+  if (static_cast<int>(last - first + 1) < o.min_poses) {
+    search.why_not = "only " + std::to_string(last - first + 1) + " poses in " + formatFixed(o.window_s, 0) +
+                     " s (at least " + std::to_string(o.min_poses) +
+                     "): keep the markers in the camera's view, or check the tracker's rate";
     return std::nullopt;
   }
   std::vector<Eigen::Isometry3d> marker_poses;
@@ -90,7 +106,9 @@ std::optional<registration::SpinResult> calibrateStretch(const std::vector<Frame
   so.min_poses = o.min_poses;
   so.min_spin_angle = o.target_spin_deg * kDeg;
   try {
-    auto result = registration::calibrateSpin(marker_poses, so, &tip);
+    // Its sign: towards the tip along the line the shaft is judged against.
+    const Eigen::Vector3d towards_tip = tip - o.line_start;
+    auto result = registration::calibrateSpin(marker_poses, so, &towards_tip);
     search.best_spin_deg = std::max(search.best_spin_deg, result.spin_angle / kDeg);
     return result;
   } catch (const ComputationError& e) {
@@ -136,7 +154,11 @@ std::vector<double> shaftDeviations(const std::vector<FramePose>& poses, std::si
 std::optional<SpinWindow> spinEndingAt(const std::vector<FramePose>& poses, std::size_t last,
                                        const SpinStepOptions& o, const Eigen::Vector3d& tip, SpinSearch& search) {
   std::size_t first = last;
-  while (first > 0 && poses[last].timestamp - poses[first - 1].timestamp <= o.window_s) --first;
+  // A timestamp that goes backwards (a restarted server) ends the stretch too.
+  while (first > 0 && poses[first - 1].timestamp <= poses[first].timestamp &&
+         poses[last].timestamp - poses[first - 1].timestamp <= o.window_s) {
+    --first;
+  }
   auto result = calibrateStretch(poses, first, last, o, tip, search);
   if (!result) return std::nullopt;
   // A tilted end biases the shaft, which makes every turn look tilted; so trim, recalibrate and trim again until
@@ -160,11 +182,11 @@ std::optional<SpinWindow> spinEndingAt(const std::vector<FramePose>& poses, std:
   w.last = kept_last;
   w.result = *result;
   w.tip_travel_mm = tipTravel(poses, w.first, w.last, tip);
-  const double off_line =
-      tip.norm() > 0.0 ? std::acos(std::clamp(w.result.shaft_marker.dot(tip.normalized()), -1.0, 1.0)) / kDeg : 0.0;
+  const double off_line = shaftToLineDeg(w.result.shaft_marker, tip, o.line_start);
   if (off_line > o.max_shaft_to_tip_line_deg) {
     search.why_not = "it turned about an axis " + formatFixed(off_line, 0) + " deg from the line to its tip (at most " +
-                     formatFixed(o.max_shaft_to_tip_line_deg, 0) + "): that tilts the shaft; turn it about the shaft";
+                     formatFixed(o.max_shaft_to_tip_line_deg, 0) +
+                     ", max_shaft_to_tip_line_deg): that tilts the shaft; turn it about the shaft";
     return std::nullopt;
   }
   if (w.result.axis_rms_angle > o.max_axis_rms_deg * kDeg) {
@@ -205,23 +227,38 @@ SpinSearch findSpin(const std::vector<FramePose>& poses, const SpinStepOptions& 
 
 Eigen::Vector3d sessionTip(const Session& session, const Params& p, const std::string& step, const std::string& tool,
                            const std::string& pivot_step) {
+  Eigen::Vector3d tip;
   if (p.has("tip_mm")) {
-    const auto text = p.text("tip_mm", "");
-    std::istringstream in(text);
-    Eigen::Vector3d tip;
-    char sep = 0;
-    if (!(in >> tip.x() >> sep >> tip.y() >> sep >> tip.z()) || !tip.allFinite()) {
+    std::istringstream in(p.text("tip_mm", ""));
+    char a = 0, b = 0;
+    std::string rest;
+    if (!(in >> tip.x() >> a >> tip.y() >> b >> tip.z()) || a != ',' || b != ',' || (in >> rest) || !tip.allFinite()) {
       throw InvalidArgumentError(step + ": tip_mm must be \"x,y,z\" in the marker's frame (mm)");
     }
-    return tip;
+  } else {
+    tip = pivotTip(session, tool, pivot_step, step, "the spin is about the shaft through the tip; or give tip_mm");
   }
-  Eigen::Matrix4d marker_T_tip;
-  const std::string name = tool + "TipTo" + tool;
-  if (!findRecordedTransform(session, name, marker_T_tip)) {
-    throw InvalidArgumentError(step + ": the session has no " + name + ": run " + pivot_step + " with tool=" + tool +
-                               " first (the spin is about the shaft through the tip), or give tip_mm");
+  // The shaft's sign and the tip's stillness are judged from the tip: one at the marker's origin says neither.
+  if (tip.norm() < 1.0) {
+    throw InvalidArgumentError(step + ": the tip is " + formatFixed(tip.norm(), 2) +
+                               " mm from the marker's origin: a spin about it cannot be told from a turn of the marker");
   }
-  return marker_T_tip.block<3, 1>(0, 3);
+  return tip;
+}
+
+/// Where the line the shaft is judged against starts, in the marker's frame: the marker's origin (a stylus's
+/// marker sits on its handle, near the shaft's line), or for the drill the flange's origin when the robot
+/// calibration placed the marker on the flange (a drill's marker sits on a bracket beside its axis).
+Eigen::Vector3d shaftLineStart(const Session& session, const std::string& step) {
+  if (step != "drill-spin-calibration") return Eigen::Vector3d::Zero();
+  const auto calibration = session.step("robot-calibration");
+  const bool has = calibration.is_object() && calibration.value("status", "") == "ok" &&
+                   calibration.contains("figures") && calibration["figures"].contains("transforms") &&
+                   calibration["figures"]["transforms"].contains("MarkerToFlange");
+  if (!has) return Eigen::Vector3d::Zero();
+  const Eigen::Isometry3d flange_T_marker(
+      matrixFromJson(calibration["figures"]["transforms"]["MarkerToFlange"], "robot-calibration MarkerToFlange"));
+  return flange_T_marker.inverse().translation();
 }
 
 StepResult runSpinStep(Session& session, const Json& params, const StepContext& context, const std::string& step,
@@ -254,6 +291,10 @@ StepResult runSpinStep(Session& session, const Json& params, const StepContext& 
   }
   checkCancel(context);  // cancelled before it started: nothing is asked of the session yet
   const Eigen::Vector3d tip = sessionTip(session, p, step, o.tool, pivot_step);
+  o.line_start = shaftLineStart(session, step);
+  if ((tip - o.line_start).norm() < 1.0) {
+    throw InvalidArgumentError(step + ": the tip lies on the flange's origin: its line gives no direction");
+  }
   const std::string transform = o.transform();
   const std::string source = p.text("source", "plus");
 
@@ -266,7 +307,7 @@ StepResult runSpinStep(Session& session, const Json& params, const StepContext& 
     const LiveTrackingOptions live = touchRecordingOptions(session, p, step, o.tool + "Spin", 60.0, recording);
     context.report(0.05, "connecting to the tracker at " + live.host + ":" + std::to_string(live.port) +
                              ": keep the " + o.tool + "'s tip in the divot and turn it about its shaft");
-    // Only the latest stretch is judged live (the whole search runs once at the end): cheap at any length.
+    // Only the latest stretch is judged live (the whole search runs once at the end).
     const auto monitor = [&](const std::vector<TrackedFrame>& so_far, std::string& message) {
       FramePoseExtraction e;
       try {
@@ -347,8 +388,8 @@ StepResult runSpinStep(Session& session, const Json& params, const StepContext& 
   const Eigen::Vector3d& s = w.result.shaft_marker;
   result.figures["shaft_marker"] = {s.x(), s.y(), s.z()};
   // How far the shaft is from the line marker-origin -> tip: what a pivot alone would have had to assume.
-  result.figures["shaft_to_tip_line_deg"] =
-      tip.norm() > 0.0 ? std::acos(std::clamp(s.dot(tip.normalized()), -1.0, 1.0)) / kDeg : 0.0;
+  result.figures["shaft_to_tip_line_deg"] = shaftToLineDeg(s, tip, o.line_start);
+  result.figures["shaft_line_from"] = o.line_start.isZero() ? "the marker's origin" : "the flange's origin";
   result.figures["spin_deg"] = w.result.spin_angle / kDeg;
   result.figures["axis_rms_deg"] = w.result.axis_rms_angle / kDeg;
   result.figures["axis_distinctness"] = w.result.axis_distinctness;
@@ -365,6 +406,10 @@ StepResult runSpinStep(Session& session, const Json& params, const StepContext& 
           << transform << " --first-frame " << first_frame << " --last-frame " << last_frame << " --tip "
           << formatGeneral(tip.x(), 17) << ' ' << formatGeneral(tip.y(), 17) << ' ' << formatGeneral(tip.z(), 17)
           << " --min-spin-deg " << formatGeneral(o.target_spin_deg, 17);
+  if (!o.line_start.isZero()) {
+    offline << " --line-start " << formatGeneral(o.line_start.x(), 17) << ' ' << formatGeneral(o.line_start.y(), 17)
+            << ' ' << formatGeneral(o.line_start.z(), 17);
+  }
   result.figures["offline_command"] = offline.str();
   std::ostringstream summary;
   summary << o.tool << " shaft " << formatFixed(result.figures["shaft_to_tip_line_deg"].get<double>(), 2)

@@ -204,6 +204,8 @@ Eigen::Matrix4d matrixFromJson(const Json& j, const std::string& what) {
 bool findRecordedTransform(const Session& session, const std::string& name, Eigen::Matrix4d& out) {
   for (const auto& [step, entry] : session.state().at("steps").items()) {
     if (!entry.is_object() || !entry.contains("figures")) continue;
+    // A step that failed or was cancelled gives nothing (an import's record has no status).
+    if (entry.contains("status") && entry["status"] != "ok") continue;
     const auto& figures = entry.at("figures");
     if (figures.is_object() && figures.contains("transforms") && figures["transforms"].contains(name)) {
       out = matrixFromJson(figures["transforms"][name], "session.json steps." + step + ".transforms." + name);
