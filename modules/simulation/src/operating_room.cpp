@@ -8,6 +8,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <fstream>
 #include <mutex>
 #include <nlohmann/json.hpp>
@@ -193,69 +194,64 @@ struct OperatingRoom::Impl {
   double guided_end_s = 0.0;  ///< when the previous waypoint ended (the next one without at_s starts then)
   std::optional<GuidedPlay> guiding;
 
-  /// The drill turned back and forth about its own axis (the line from the flange through its tip), the tip
-  /// held in the divot: `spin_cycles` sine periods of `spin_deg` each way over the duration.
-  std::vector<std::pair<robot::Joints, double>> spinPath(const RobotSpec::GuidedWaypoint& w,
-                                                         const robot::Joints& from) const {
+  /// The arm turning the drill about its tip, held in a divot: `n` waypoints over the duration, waypoint i the
+  /// rotation `turn(i, axis)` about the tip (axis: the drill's, from the flange through its tip), each joint
+  /// solution nearest the one before. Throws ComputationError (`what`) when the UR5 cannot follow.
+  std::vector<std::pair<robot::Joints, double>> turnAboutTip(
+      const robot::Joints& from, int n, double duration_s,
+      const std::function<Eigen::Matrix3d(int, const Eigen::Vector3d&)>& turn, const std::string& what) const {
     const auto& kinematics = ur->arm().kinematics();
     const Eigen::Isometry3d base_T_flange = kinematics.forward(from);
     const Eigen::Vector3d tip = base_T_flange * scenario.robot.drill_tip_flange;
     const Eigen::Vector3d axis = (tip - base_T_flange.translation()).normalized();
-    constexpr int kPerCycle = 96;  // a few degrees of turn per waypoint
-    const int n = kPerCycle * w.spin_cycles;
     std::vector<std::pair<robot::Joints, double>> path;
     robot::Joints q = from;
     for (int i = 1; i <= n; ++i) {
-      const double angle = w.spin_deg * M_PI / 180.0 * std::sin(2.0 * M_PI * i / kPerCycle);
-      Eigen::Isometry3d about_axis = Eigen::Isometry3d::Identity();
-      about_axis.linear() = Eigen::AngleAxisd(angle, axis).toRotationMatrix();
-      about_axis.translation() = tip - about_axis.linear() * tip;
-      const auto next = kinematics.inverseNearest(about_axis * base_T_flange, q, &ur->arm().options().limits);
-      if (!next) {
-        throw ComputationError("hand-guided drill spin: the UR5 cannot turn the drill " + std::to_string(w.spin_deg) +
-                               " deg about its axis from where it stands");
-      }
+      Eigen::Isometry3d about_tip = Eigen::Isometry3d::Identity();
+      about_tip.linear() = turn(i, axis);
+      about_tip.translation() = tip - about_tip.linear() * tip;
+      const auto next = kinematics.inverseNearest(about_tip * base_T_flange, q, &ur->arm().options().limits);
+      if (!next) throw ComputationError(what + " from where it stands");
       q = *next;
-      path.emplace_back(q, w.duration_s / n);
+      path.emplace_back(q, duration_s / n);
     }
     return path;
   }
 
-  /// The joints of one waypoint, from where the arm stands: the target, or the drill pivoting about its tip.
+  /// The joints of one waypoint, from where the arm stands: the target; the drill pivoting about its tip (its
+  /// axis circling a cone, ramped in and out); or the drill turned back and forth about its own axis (a spin).
   std::vector<std::pair<robot::Joints, double>> guidedPath(const RobotSpec::GuidedWaypoint& w,
                                                            const robot::Joints& from) const {
-    std::vector<std::pair<robot::Joints, double>> path;
-    if (w.spin_deg > 0.0) return spinPath(w, from);
-    if (w.pivot_deg <= 0.0) {
-      robot::Joints to;
-      for (int i = 0; i < 6; ++i) to[i] = w.joints[static_cast<std::size_t>(i)];
-      path.emplace_back(to, w.duration_s);
-      return path;
+    constexpr double kRad = M_PI / 180.0;
+    if (w.spin_deg > 0.0) {
+      constexpr int kPerCycle = 96;  // a few degrees of turn per waypoint
+      return turnAboutTip(
+          from, kPerCycle * w.spin_cycles, w.duration_s,
+          [&](int i, const Eigen::Vector3d& axis) {
+            const double angle = w.spin_deg * kRad * std::sin(2.0 * M_PI * i / kPerCycle);
+            return Eigen::AngleAxisd(angle, axis).toRotationMatrix();
+          },
+          "hand-guided drill spin: the UR5 cannot turn the drill " + std::to_string(w.spin_deg) +
+              " deg about its axis");
     }
-    const auto& kinematics = ur->arm().kinematics();
-    const Eigen::Isometry3d base_T_flange = kinematics.forward(from);
-    const Eigen::Vector3d tip = base_T_flange * scenario.robot.drill_tip_flange;
-    const Eigen::Vector3d axis = (tip - base_T_flange.translation()).normalized();
-    const Eigen::Vector3d u = axis.unitOrthogonal(), v = axis.cross(u);
-    constexpr int kPerCycle = 48;  // 7.5 deg of the cone per waypoint: the tip stays within ~0.1 mm between them
-    const int n = kPerCycle * w.pivot_cycles;
-    robot::Joints q = from;
-    for (int i = 1; i <= n; ++i) {
-      const double phase = 2.0 * M_PI * i / kPerCycle;
-      const double ramp = std::min({1.0, i / (0.25 * kPerCycle), (n - i) / (0.25 * kPerCycle)});
-      const Eigen::Vector3d tilt_axis = std::cos(phase) * u + std::sin(phase) * v;
-      Eigen::Isometry3d about_tip = Eigen::Isometry3d::Identity();
-      about_tip.linear() = Eigen::AngleAxisd(ramp * w.pivot_deg * M_PI / 180.0, tilt_axis).toRotationMatrix();
-      about_tip.translation() = tip - about_tip.linear() * tip;
-      const auto next = kinematics.inverseNearest(about_tip * base_T_flange, q, &ur->arm().options().limits);
-      if (!next) {
-        throw ComputationError("hand-guided drill pivot: the UR5 cannot tilt the drill " +
-                               std::to_string(w.pivot_deg) + " deg about its tip from where it stands");
-      }
-      q = *next;
-      path.emplace_back(q, w.duration_s / n);
+    if (w.pivot_deg > 0.0) {
+      constexpr int kPerCycle = 48;  // 7.5 deg of the cone per waypoint: the tip stays within ~0.1 mm between them
+      const int n = kPerCycle * w.pivot_cycles;
+      return turnAboutTip(
+          from, n, w.duration_s,
+          [&](int i, const Eigen::Vector3d& axis) {
+            const Eigen::Vector3d u = axis.unitOrthogonal(), v = axis.cross(u);
+            const double phase = 2.0 * M_PI * i / kPerCycle;
+            const double ramp = std::min({1.0, i / (0.25 * kPerCycle), (n - i) / (0.25 * kPerCycle)});
+            const Eigen::Vector3d tilt_axis = std::cos(phase) * u + std::sin(phase) * v;
+            return Eigen::AngleAxisd(ramp * w.pivot_deg * kRad, tilt_axis).toRotationMatrix();
+          },
+          "hand-guided drill pivot: the UR5 cannot tilt the drill " + std::to_string(w.pivot_deg) +
+              " deg about its tip");
     }
-    return path;
+    robot::Joints to;
+    for (int i = 0; i < 6; ++i) to[i] = w.joints[static_cast<std::size_t>(i)];
+    return {{to, w.duration_s}};
   }
 
   void guideArm(double t) {

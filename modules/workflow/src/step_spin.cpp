@@ -123,6 +123,13 @@ std::optional<registration::SpinResult> calibrateStretch(const std::vector<Frame
   }
 }
 
+/// The median of non-empty values (the upper one of an even count).
+double median(std::vector<double> values) {
+  const auto middle = values.begin() + static_cast<std::ptrdiff_t>(values.size() / 2);
+  std::nth_element(values.begin(), middle, values.end());
+  return *middle;
+}
+
 /// Angles (deg) of the shaft's direction in the tracker, pose by pose, from their mean over the poses that
 /// agree (one reweighting: a tilted end does not pull the mean).
 std::vector<double> shaftDeviations(const std::vector<FramePose>& poses, std::size_t first, std::size_t last,
@@ -138,9 +145,7 @@ std::vector<double> shaftDeviations(const std::vector<FramePose>& poses, std::si
   Eigen::Vector3d mean = Eigen::Vector3d::Zero();
   for (std::size_t i = first; i <= last; ++i) mean += poses[i].to_T_from.linear() * shaft_marker;
   auto d = deviations(mean.normalized());
-  std::vector<double> sorted = d;
-  std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2), sorted.end());
-  const double cut = 3.0 * sorted[sorted.size() / 2];
+  const double cut = 3.0 * median(d);
   Eigen::Vector3d agreed = Eigen::Vector3d::Zero();
   for (std::size_t i = first; i <= last; ++i) {
     if (d[i - first] <= cut) agreed += poses[i].to_T_from.linear() * shaft_marker;
@@ -166,10 +171,8 @@ std::optional<SpinWindow> spinEndingAt(const std::vector<FramePose>& poses, std:
   std::size_t kept_first = first, kept_last = last;
   for (int round = 0; round < 5; ++round) {
     const auto deviation = shaftDeviations(poses, kept_first, kept_last, result->shaft_marker);
-    std::vector<double> sorted = deviation;
-    std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2), sorted.end());
     // Three times the typical sway, and never below what the tracker's orientation noise alone gives.
-    const double keep_deg = std::max(kMinTrimDeg, 3.0 * sorted[sorted.size() / 2]);
+    const double keep_deg = std::max(kMinTrimDeg, 3.0 * median(deviation));
     const std::size_t was_first = kept_first, was_last = kept_last;
     while (kept_first < kept_last && deviation[kept_first - was_first] > keep_deg) ++kept_first;
     while (kept_last > kept_first && deviation[kept_last - was_first] > keep_deg) --kept_last;
