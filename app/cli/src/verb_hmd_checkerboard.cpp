@@ -7,6 +7,7 @@
 //   board_poses.csv       BoardToTracker per image
 //   corners.csv           digitised inner corners in the board-marker frame, mm,
 //                         "x,y,z" per line, row-major (row 0 col 0, row 0 col 1, ...)
+//   intrinsics.json       optional: the camera's intrinsics
 //   calibration/*.png     optional: images of a printed board for the intrinsics
 #include <algorithm>
 #include <cmath>
@@ -17,6 +18,7 @@
 #include "cli_context.h"
 #include "mrsns/core/error.h"
 #include "mrsns/core/rigid.h"
+#include "mrsns/hmd/checkerboard_dataset.h"
 #include "mrsns/hmd/checkerboard_trial.h"
 #include "mrsns/io/file_names.h"
 #include "mrsns/io/pose_csv.h"
@@ -108,14 +110,6 @@ struct TrialOptions {
   std::string write_dataset;
 };
 
-void writeCorners(const fs::path& path, const std::vector<Eigen::Vector3d>& pts) {
-  std::ofstream out(path);
-  out.precision(10);
-  out << "# digitised inner corners in the board-marker frame (mm), row-major\n";
-  for (const auto& p : pts) out << p.x() << ',' << p.y() << ',' << p.z() << '\n';
-  if (!out) throw FileError("cannot write '" + path.string() + "'");
-}
-
 std::string imageName(const char* prefix, size_t i) {
   std::string n = std::to_string(i + 1);
   return std::string(prefix) + std::string(n.size() < 3 ? 3 - n.size() : 0, '0') + n + ".png";
@@ -169,7 +163,7 @@ Report runTrial(const TrialOptions& o) {
     }
     io::writePoseCsv(dir / "hmd_poses.csv", hmd_poses);
     io::writePoseCsv(dir / "board_poses.csv", board_poses);
-    writeCorners(dir / "corners.csv", r.digitised_corners);
+    hmd::writeBoardCorners(dir / "corners.csv", r.digitised_corners);
     std::ofstream truth(dir / "truth.json");
     truth << Json{{"hmd_T_camera", poseJson(r.true_hmd_T_camera)},
                   {"board", {{"rows", t.board.rows}, {"cols", t.board.cols}, {"square_mm", t.board.square_mm}}},
@@ -193,49 +187,12 @@ Report runTrial(const TrialOptions& o) {
 // ---- hmd-calibrate-checkerboard -----------------------------------------------------------
 
 struct CalibrateOptions {
-  std::string dataset, images, hmd_poses, board_poses, corners, calibration_images, output;
+  std::string dataset, images, hmd_poses, board_poses, corners, calibration_images, intrinsics, output;
   int rows = 3, cols = 5;
   double square_mm = 40.0;
   int calib_rows = 6, calib_cols = 9;
   double calib_square_mm = 25.0;
 };
-
-std::vector<fs::path> imagesIn(const fs::path& dir) {
-  if (!fs::is_directory(dir)) throw FileError("image folder '" + dir.string() + "' does not exist");
-  std::vector<fs::path> out;
-  for (const auto& e : fs::directory_iterator(dir)) {
-    const std::string ext = io::lowerExtension(e.path());
-    if (e.is_regular_file() && (ext == ".png" || ext == ".jpg" || ext == ".jpeg" || ext == ".bmp")) {
-      out.push_back(e.path());
-    }
-  }
-  std::sort(out.begin(), out.end());
-  return out;
-}
-
-std::vector<Eigen::Vector3d> readCorners(const fs::path& path) {
-  std::ifstream in(path);
-  if (!in) throw FileError("cannot open digitised corners file '" + path.string() + "'");
-  std::vector<Eigen::Vector3d> pts;
-  std::string line;
-  int number = 0;
-  while (std::getline(in, line)) {
-    ++number;
-    if (line.find_first_not_of(" \t\r") == std::string::npos || line[line.find_first_not_of(" \t")] == '#') continue;
-    std::replace(line.begin(), line.end(), ',', ' ');
-    std::replace(line.begin(), line.end(), ';', ' ');
-    std::istringstream s(line);
-    Eigen::Vector3d p;
-    std::string extra;
-    if (!(s >> p.x() >> p.y() >> p.z()) || (s >> extra) || !p.allFinite()) {
-      if (number == 1 && pts.empty()) continue;  // a header line
-      throw FormatError("'" + path.string() + "' line " + std::to_string(number) +
-                        ": expected three numbers x,y,z (mm, board-marker frame)");
-    }
-    pts.push_back(p);
-  }
-  return pts;
-}
 
 Report runCalibrate(const CalibrateOptions& o) {
   const fs::path base(o.dataset);
@@ -245,77 +202,48 @@ Report runCalibrate(const CalibrateOptions& o) {
   if (o.dataset.empty() && (o.images.empty() || o.hmd_poses.empty() || o.board_poses.empty() || o.corners.empty())) {
     throw InvalidArgumentError("give --dataset DIR, or all of --images, --hmd-poses, --board-poses and --corners");
   }
-  const hmd::CheckerboardSpec board{o.rows, o.cols, o.square_mm};
-  const auto image_paths = imagesIn(pick(o.images, "images"));
-  const auto hmd_poses = io::readPoseCsv(pick(o.hmd_poses, "hmd_poses.csv")).poses;
-  const auto board_poses = io::readPoseCsv(pick(o.board_poses, "board_poses.csv")).poses;
-  if (image_paths.size() < 3) {
-    throw InvalidArgumentError("only " + std::to_string(image_paths.size()) +
-                               " images found: the checkerboard hand-eye calibration needs at least 3 (paper 000 "
-                               "used 10, at 0.5-1.5 m)");
+  hmd::CheckerboardDatasetFiles files;
+  if (!o.dataset.empty()) files = hmd::checkerboardDatasetIn(base);
+  files.images = pick(o.images, "images");
+  files.hmd_poses = pick(o.hmd_poses, "hmd_poses.csv");
+  files.board_poses = pick(o.board_poses, "board_poses.csv");
+  files.corners = pick(o.corners, "corners.csv");
+  if (!o.intrinsics.empty()) {
+    if (!fs::exists(o.intrinsics)) throw FileError("camera intrinsics '" + o.intrinsics + "' do not exist");
+    files.intrinsics = o.intrinsics;
   }
-  if (hmd_poses.size() != image_paths.size() || board_poses.size() != image_paths.size()) {
-    throw InvalidArgumentError(std::to_string(image_paths.size()) + " images but " + std::to_string(hmd_poses.size()) +
-                               " HMD poses and " + std::to_string(board_poses.size()) +
-                               " board poses: give one line per image, in file-name order");
-  }
-  const auto corners = readCorners(pick(o.corners, "corners.csv"));
-  const auto grid = hmd::fitCheckerboardGrid(corners, board);
-
-  std::vector<hmd::CheckerboardView> views;
-  std::vector<hmd::GrayImage> images;
-  for (size_t i = 0; i < image_paths.size(); ++i) {
-    hmd::CheckerboardView v;
-    v.name = image_paths[i].filename().string();
-    images.push_back(hmd::readGrayImage(image_paths[i]));
-    v.corners_px = hmd::detectCheckerboardOrThrow(images.back(), board, v.name);
-    v.tracker_T_hmd = hmd_poses[i];
-    v.tracker_T_board = board_poses[i];
-    views.push_back(v);
-  }
-  // Intrinsics from the calibration images when present, else from the hand-eye images.
-  fs::path calib_dir = o.calibration_images;
-  if (calib_dir.empty() && !o.dataset.empty() && fs::is_directory(base / "calibration"))
-    calib_dir = base / "calibration";
-  hmd::CameraCalibrationResult camera;
-  if (!calib_dir.empty()) {
-    const hmd::CheckerboardSpec calib_board{o.calib_rows, o.calib_cols, o.calib_square_mm};
-    std::vector<std::vector<Eigen::Vector2d>> calib_corners;
-    int width = 0, height = 0;
-    for (const auto& p : imagesIn(calib_dir)) {
-      const auto img = hmd::readGrayImage(p);
-      width = img.width;
-      height = img.height;
-      calib_corners.push_back(hmd::detectCheckerboardOrThrow(img, calib_board, p.filename().string()));
+  if (!o.calibration_images.empty()) {
+    if (!fs::is_directory(o.calibration_images)) {
+      throw FileError("image folder '" + o.calibration_images + "' does not exist");
     }
-    camera = hmd::calibrateCamera(calib_corners, calib_board, width, height);
-  } else {
-    std::vector<std::vector<Eigen::Vector2d>> c;
-    for (const auto& v : views) c.push_back(v.corners_px);
-    camera = hmd::calibrateCamera(c, board, images.front().width, images.front().height);
+    files.calibration_images = o.calibration_images;
+    if (o.intrinsics.empty()) files.intrinsics.clear();
   }
-  const auto he = hmd::calibrateCheckerboardHandEye(views, grid.board_T_grid, board, camera.intrinsics);
-  const auto rpee = hmd::retroProjectionError(views, he.hmd_T_camera, grid.board_T_grid, board, camera.intrinsics,
-                                              he.corners_reversed);
+  hmd::CheckerboardDatasetOptions options;
+  options.board = {o.rows, o.cols, o.square_mm};
+  options.calibration_board = {o.calib_rows, o.calib_cols, o.calib_square_mm};
+  const auto r = hmd::calibrateCheckerboardDataset(files, options);
+  const auto& he = r.hand_eye;
 
   Report report;
   auto& j = report.json;
   j["verb"] = "hmd-calibrate-checkerboard";
-  j["images"] = image_paths.size();
-  j["camera"] = intrinsicsJson(camera);
-  j["grid"] = gridJson(grid);
+  j["images"] = r.image_names.size();
+  j["camera"] = intrinsicsJson(r.camera);
+  j["camera"]["source"] = r.intrinsics_source;
+  j["grid"] = gridJson(r.grid);
   j["hmd_T_camera"] = poseJson(he.hmd_T_camera);
   j["per_image_pnp_rms_px"] = he.per_view_pnp_rms_px;
   j["spread"] = {{"rotation_rms_deg", he.rotation_rms_rad * kRadToDeg}, {"translation_rms_mm", he.translation_rms_mm}};
   j["table1"] = dispersionJson(he.dispersion);
-  j["rpee"] = rpeeJson(rpee);
+  j["rpee"] = rpeeJson(r.rpee);
   if (!o.output.empty()) {
     // Slicer convention (transform_io.h): a node CameraToHmd is stored as its inverse.
     io::writeTransformFile(he.hmd_T_camera.inverse().matrix(), o.output);
     j["output"] = o.output;
   }
-  report.text = "Checkerboard hand-eye calibration from " + std::to_string(image_paths.size()) + " images\n" +
-                summaryText(he, rpee);
+  report.text = "Checkerboard hand-eye calibration from " + std::to_string(r.image_names.size()) + " images (" +
+                "intrinsics from " + r.intrinsics_source + ")\n" + summaryText(he, r.rpee);
   return report;
 }
 
@@ -352,6 +280,9 @@ void registerHmdCheckerboardVerbs(CLI::App& app, GlobalOptions& options, VerbLis
   c->add_option("--board-poses", cal->board_poses, "BoardToTracker pose CSV, one line per image");
   c->add_option("--corners", cal->corners, "digitised corners x,y,z (board-marker frame, mm), row-major");
   c->add_option("--calibration-images", cal->calibration_images, "folder of printed-board images for the intrinsics");
+  c->add_option("--intrinsics", cal->intrinsics,
+                "the camera's intrinsics (mrsns-camera-intrinsics/1 JSON); default: intrinsics.json in the data set, "
+                "else from the calibration images, else estimated from the hand-eye images");
   c->add_option("--rows", cal->rows, "inner corner rows of the tracked board")->capture_default_str();
   c->add_option("--cols", cal->cols, "inner corner columns of the tracked board")->capture_default_str();
   c->add_option("--square", cal->square_mm, "square size of the tracked board, mm")->capture_default_str();

@@ -53,6 +53,10 @@ Json endpointsJson(const simulation::OperatingRoomEndpoints& e, const simulation
   if (scenario.hmd.enabled && scenario.hmd.cube.enabled && !scenario.hmd.marker_tool.empty()) {
     j["hmd_cube_operator"] = true;
   }
+  // Someone who looks at the tracked checkerboard when asked, and a headset that sends its camera's photos.
+  if (scenario.hmd.enabled && scenario.hmd.camera.enabled && !scenario.hmd.marker_tool.empty()) {
+    j["hmd_camera_operator"] = true;
+  }
   if (e.robot) {
     j["robot"] = {{"rtde", e.rtde_port},
                   {"dashboard", e.dashboard_port},

@@ -13,6 +13,7 @@
 #include "mrsns/core/log.h"
 #include "mrsns/core/wall_clock.h"
 #include "mrsns/igtlink/client.h"
+#include "mrsns/igtlink/image.h"
 #include "mrsns/igtlink/polydata_mesh.h"
 #include "mrsns/tracking/unity_convention.h"
 
@@ -295,6 +296,34 @@ bool HmdEmulator::confirm(const std::string& what) {
   if (!impl_->client || !impl_->client->send(message, version)) return false;
   std::lock_guard lock(impl_->mutex);
   ++impl_->counters.confirmations;
+  return true;
+}
+
+bool HmdEmulator::sendImage(int width, int height, const std::vector<std::uint8_t>& pixels,
+                            const std::string& intrinsics) {
+  if (width <= 0 || height <= 0 || width > 65535 || height > 65535 ||
+      pixels.size() != static_cast<std::size_t>(width) * static_cast<std::size_t>(height)) {
+    throw InvalidArgumentError("HMD emulator: a photo needs 1-65535 pixels a side and width x height grey pixels");
+  }
+  igtlink::ImageContent image;
+  image.components = 1;
+  image.scalar_type = igtlink::ScalarType::kUint8;
+  image.resizeWhole({static_cast<std::uint16_t>(width), static_cast<std::uint16_t>(height), 1});
+  image.pixels = pixels;
+  auto message = igtlink::makeMessage("HmdCamera", std::move(image), unixTimeSeconds());
+  igtlink::HeaderVersion version = igtlink::HeaderVersion::kV1;
+  {
+    std::lock_guard lock(impl_->mutex);
+    version = impl_->stream_version;
+  }
+  message.header.version = static_cast<std::uint16_t>(version);
+  if (version == igtlink::HeaderVersion::kV2 && !intrinsics.empty()) {
+    message.metadata.push_back({"CameraIntrinsics", igtlink::kEncodingUsAscii, intrinsics});
+  }
+  std::lock_guard lifecycle(impl_->lifecycle_mutex);
+  if (!impl_->client || !impl_->client->send(message, version)) return false;
+  std::lock_guard lock(impl_->mutex);
+  ++impl_->counters.images_sent;
   return true;
 }
 

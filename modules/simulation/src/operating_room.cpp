@@ -26,7 +26,10 @@
 #include "mrsns/simulation/hmd_emulator.h"
 #include "mrsns/simulation/plus_server.h"
 #include "mrsns/simulation/world.h"
+#include "camera_operator.h"
 #include "cube_operator.h"
+#include "mrsns/hmd/board_renderer.h"
+#include "mrsns/hmd/checkerboard_dataset.h"
 
 namespace mrsns::simulation {
 
@@ -86,6 +89,10 @@ struct OperatingRoom::Impl {
   std::unique_ptr<robot::UrSimulator> ur;
   std::unique_ptr<HmdEmulator> hmd;
   std::unique_ptr<CubeOperator> cube_operator;  ///< the HMD calibration's operator (a tracked headset only)
+  /// The wearer during the checkerboard hand-eye calibration (a tracked headset with a camera only).
+  std::unique_ptr<CameraOperator> camera_operator;
+  /// Renders and sends a photo off the tracker's thread (one at a time).
+  std::thread photo_thread;
   /// The headset's world frame in the tracker's, anchored at the start (a tracked headset only).
   std::optional<Eigen::Isometry3d> tracker_T_hmd_world;
   std::optional<TrackedSequence> replay;
@@ -102,6 +109,7 @@ struct OperatingRoom::Impl {
   std::vector<FrameTruth> frame_truth;
   std::vector<HmdTruth> hmd_truth;
   std::vector<CubeOperator::MatchTruth> cube_matches;
+  std::vector<CameraOperator::ViewTruth> camera_views;
   std::vector<EventTruth> events;
   OperatingRoomStats stats;
 
@@ -310,7 +318,13 @@ struct OperatingRoom::Impl {
   // The cube in the operator's hand, lined up with where the headset shows its hologram (in the tracker frame:
   // the headset's world frame placed by its truth).
   std::vector<World::HeldTool> heldTools(double t, const std::optional<Eigen::Isometry3d>& base_T_flange) {
-    if (!cube_operator) return {};
+    std::vector<World::HeldTool> held;
+    if (camera_operator) {
+      if (auto headset = camera_operator->pose(t, restingPose(t, base_T_flange, scenario.hmd.marker_tool))) {
+        held.push_back({scenario.hmd.marker_tool, *headset});
+      }
+    }
+    if (!cube_operator) return held;
     std::optional<Eigen::Isometry3d> shown;
     for (const auto& m : hmd->displayed()) {
       if (m.name == scenario.hmd.cube.hologram && m.visible && tracker_T_hmd_world) {
@@ -321,9 +335,53 @@ struct OperatingRoom::Impl {
     for (const auto& tool : world->tools(t, base_T_flange)) {
       if (tool.name == scenario.hmd.cube.tool) rest = tool.tracker_T_tool;
     }
-    const auto held = cube_operator->pose(t, rest, shown);
-    if (!held) return {};
-    return {{scenario.hmd.cube.tool, *held}};
+    if (const auto cube = cube_operator->pose(t, rest, shown)) held.push_back({scenario.hmd.cube.tool, *cube});
+    return held;
+  }
+
+  // Where the scenario puts a tool at t (its motion, nobody holding it).
+  Eigen::Isometry3d restingPose(double t, const std::optional<Eigen::Isometry3d>& base_T_flange,
+                                const std::string& name) const {
+    for (const auto& tool : world->tools(t, base_T_flange)) {
+      if (tool.name == name) return tool.tracker_T_tool;
+    }
+    return Eigen::Isometry3d::Identity();
+  }
+
+  std::optional<Eigen::Isometry3d> flangeNow() const {
+    if (!ur) return std::nullopt;
+    return ur->armState().base_T_flange;
+  }
+
+  // The photo the wearer's headset takes, rendered and sent off this thread (a previous one finished first).
+  void takePhoto(double t) {
+    const auto flange = flangeNow();
+    const Eigen::Isometry3d rest = restingPose(t, flange, scenario.hmd.marker_tool);
+    const auto headset = camera_operator->pose(t, rest);
+    const Eigen::Isometry3d board = restingPose(t, flange, scenario.hmd.camera.board_tool);
+    const auto photo = camera_operator->photoDue(t, headset.value_or(rest), board);
+    {
+      std::lock_guard lock(truth_mutex);
+      camera_views = camera_operator->views();
+    }
+    if (!photo) return;
+    if (photo_thread.joinable()) photo_thread.join();
+    const auto& c = scenario.hmd.camera;
+    hmd::BoardRenderOptions render;
+    render.blur_sigma_px = c.blur_sigma_px;
+    render.noise_sigma = c.noise_sigma;
+    render.seed = static_cast<unsigned>(scenario.seed * 7919ULL + static_cast<std::uint64_t>(photo->view));
+    const std::string intrinsics = c.send_intrinsics ? hmd::intrinsicsText(camera_operator->reportedIntrinsics()) : "";
+    photo_thread = std::thread([this, t, photo = *photo, render, intrinsics] {
+      try {
+        const auto image = hmd::renderCheckerboard(camera_operator->board(), camera_operator->trueIntrinsics(),
+                                                   photo.camera_T_grid, render);
+        const bool sent = hmd->sendImage(image.width, image.height, image.pixels, intrinsics);
+        event(t, "hmd photo of view " + std::to_string(photo.view) + (sent ? " sent" : " lost (not connected)"), false);
+      } catch (const std::exception& e) {
+        event(t, std::string("hmd photo failed: ") + e.what(), false);
+      }
+    });
   }
 
   void operateHeadset(double t) {
@@ -331,12 +389,18 @@ struct OperatingRoom::Impl {
     for (const auto& prompt : hmd->promptsSince(prompts_seen)) {
       event(t, "hmd prompt: " + prompt, false);
       if (cube_operator) cube_operator->onPrompt(t, prompt);
+      if (camera_operator) {
+        const auto flange = flangeNow();
+        camera_operator->onPrompt(t, prompt, restingPose(t, flange, scenario.hmd.camera.board_tool),
+                                  restingPose(t, flange, scenario.hmd.marker_tool));
+      }
       for (const auto& r : spec.responses) {
         if (prompt.find(r.prompt_contains) != std::string::npos) {
           pending_confirmations.emplace_back(t + r.after_s, r.confirm);
         }
       }
     }
+    if (camera_operator) takePhoto(t);
     if (cube_operator) {
       if (auto c = cube_operator->confirmationDue(t)) pending_confirmations.emplace_back(t, *c);
       std::lock_guard lock(truth_mutex);
@@ -614,6 +678,9 @@ void OperatingRoom::start() {
     if (s.hmd.cube.enabled && impl_->tracker_T_hmd_world) {
       impl_->cube_operator = std::make_unique<CubeOperator>(s.hmd.cube, s.seed);
     }
+    if (s.hmd.camera.enabled && impl_->tracker_T_hmd_world) {
+      impl_->camera_operator = std::make_unique<CameraOperator>(s.hmd.camera, s.tracker.volume, s.seed);
+    }
     impl_->hmd->start();
   }
   impl_->t0 = Clock::now();
@@ -630,7 +697,7 @@ void OperatingRoom::start() {
 void OperatingRoom::stop() {
   if (!impl_) return;
   impl_->running = false;
-  for (auto* th : {&impl_->tracker_thread, &impl_->video_thread, &impl_->replay_thread}) {
+  for (auto* th : {&impl_->tracker_thread, &impl_->video_thread, &impl_->replay_thread, &impl_->photo_thread}) {
     if (th->joinable()) th->join();
   }
   if (impl_->ur) impl_->ur->stop();
@@ -727,6 +794,16 @@ void OperatingRoom::writeTruth(const std::filesystem::path& path) const {
                          {"confirmed", m.confirmed}});
     }
     if (!matches.empty()) j["hmd_cube_matches"] = matches;
+    Json photos = Json::array();
+    for (const auto& v : impl_->camera_views) {
+      photos.push_back({{"view", v.view},
+                        {"prompt_t", v.prompt_t},
+                        {"photo_t", v.photo_t >= 0.0 ? Json(v.photo_t) : Json(nullptr)},
+                        {"distance_mm", v.distance_mm},
+                        {"tilt_deg", v.tilt_deg},
+                        {"reachable", v.reachable}});
+    }
+    if (!photos.empty()) j["hmd_camera_views"] = photos;
     if (impl_->tracker_T_hmd_world) {
       Json m = Json::array();
       for (int r = 0; r < 4; ++r) {

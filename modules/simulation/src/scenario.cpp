@@ -263,6 +263,55 @@ void checkToolName(const Node& n, const char* key, const std::string& name) {
   }
 }
 
+HeadsetCameraSpec readHeadsetCamera(const Node& n) {
+  n.allow({"enabled", "marker_to_camera", "fx", "fy", "cx", "cy", "distortion", "width", "height", "send_intrinsics",
+           "intrinsics_focal_error_percent", "intrinsics_principal_error_px", "board_tool", "rows", "cols",
+           "square_mm", "board_to_grid", "prompt_contains", "move_s", "settle_s", "distance_mm", "max_tilt_deg",
+           "max_roll_deg", "head_sway_mm", "blur_sigma_px", "noise_sigma"});
+  HeadsetCameraSpec c;
+  c.enabled = n.boolean("enabled", true);
+  c.marker_T_camera = n.pose("marker_to_camera", c.marker_T_camera);
+  c.width = static_cast<int>(n.integer("width", c.width, 64, 4096));
+  c.height = static_cast<int>(n.integer("height", c.height, 64, 4096));
+  c.fx = n.number("fx", c.fx, 50.0, 20000.0);
+  c.fy = n.number("fy", c.fy, 50.0, 20000.0);
+  c.cx = n.number("cx", 0.5 * c.width, 0.0, c.width);
+  c.cy = n.number("cy", 0.5 * c.height, 0.0, c.height);
+  if (n.has("distortion")) {
+    const auto& d = n.json().at("distortion");
+    if (!d.is_array() || d.size() != 5) n.failKey("distortion", "must be [k1, k2, p1, p2, k3]");
+    for (std::size_t i = 0; i < 5; ++i) {
+      if (!d[i].is_number() || !(std::abs(d[i].get<double>()) <= 2.0)) {
+        n.failKey("distortion", "must be 5 numbers within [-2, 2]");
+      }
+      c.distortion[i] = d[i].get<double>();
+    }
+  }
+  c.send_intrinsics = n.boolean("send_intrinsics", c.send_intrinsics);
+  c.intrinsics_focal_error_percent =
+      n.number("intrinsics_focal_error_percent", c.intrinsics_focal_error_percent, 0.0, 20.0);
+  c.intrinsics_principal_error_px = n.number("intrinsics_principal_error_px", c.intrinsics_principal_error_px, 0.0, 100.0);
+  c.board_tool = n.text("board_tool", c.board_tool);
+  checkToolName(n, "board_tool", c.board_tool);
+  c.rows = static_cast<int>(n.integer("rows", c.rows, 2, 30));
+  c.cols = static_cast<int>(n.integer("cols", c.cols, 2, 30));
+  c.square_mm = n.number("square_mm", c.square_mm, 2.0, 500.0);
+  c.board_T_grid = n.pose("board_to_grid", c.board_T_grid);
+  c.prompt_contains = n.text("prompt_contains", c.prompt_contains);
+  if (c.prompt_contains.empty()) n.failKey("prompt_contains", "must not be empty");
+  c.move_s = n.number("move_s", c.move_s, 0.1, 60.0);
+  c.settle_s = n.number("settle_s", c.settle_s, 0.1, 60.0);
+  const auto d = n.range("distance_mm", {c.min_distance_mm, c.max_distance_mm}, 100.0, 5000.0);
+  c.min_distance_mm = d[0];
+  c.max_distance_mm = d[1];
+  c.max_tilt_deg = n.number("max_tilt_deg", c.max_tilt_deg, 0.0, 70.0);
+  c.max_roll_deg = n.number("max_roll_deg", c.max_roll_deg, 0.0, 180.0);
+  c.head_sway_mm = n.number("head_sway_mm", c.head_sway_mm, 0.0, 50.0);
+  c.blur_sigma_px = n.number("blur_sigma_px", c.blur_sigma_px, 0.0, 10.0);
+  c.noise_sigma = n.number("noise_sigma", c.noise_sigma, 0.0, 100.0);
+  return c;
+}
+
 MotionSegment readSegment(const Node& n) {
   MotionSegment s;
   s.kind = choose<MotionKind>(n, "kind", MotionKind::Hold,
@@ -683,7 +732,7 @@ Scenario parseScenario(const std::string& json_text, const std::filesystem::path
   if (root.has("hmd")) {
     const Node n = root.child("hmd");
     n.allow({"enabled", "host", "port", "unity", "drift_mm_per_min", "jitter_mm", "respond", "confirmations",
-             "marker_tool", "world_to_marker", "cube"});
+             "marker_tool", "world_to_marker", "cube", "camera"});
     s.hmd.marker_tool = n.text("marker_tool", "");
     if (!s.hmd.marker_tool.empty()) checkToolName(n, "marker_tool", s.hmd.marker_tool);
     s.hmd.marker_T_world = n.pose("world_to_marker", s.hmd.marker_T_world);
@@ -718,6 +767,15 @@ Scenario parseScenario(const std::string& json_text, const std::filesystem::path
       }
       if (s.hmd.marker_tool.empty()) {
         n.fail("has a cube operator but no marker_tool: the headset must be tracked to know where it shows the cube");
+      }
+    }
+    if (n.has("camera")) {
+      s.hmd.camera = readHeadsetCamera(n.child("camera"));
+      if (!names.count(s.hmd.camera.board_tool)) {
+        n.child("camera").failKey("board_tool", "'" + s.hmd.camera.board_tool + "' is not one of the scenario's tools");
+      }
+      if (s.hmd.marker_tool.empty()) {
+        n.fail("has a camera but no marker_tool: the headset must be tracked for a hand-eye calibration");
       }
     }
   }

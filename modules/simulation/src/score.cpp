@@ -80,6 +80,34 @@ Eigen::Isometry3d compactPose(const Json& p) {
   return t;
 }
 
+// Paper 000's hand-eye calibration against the camera's true place on the headset's marker, and what that error
+// does to a point the camera sees 0.5 and 1 m ahead (where a hologram registered through the camera would go).
+void scoreHmdCameraCalibration(const Json& session, const Json& truth, Json& scored, Json& not_scored) {
+  const Json* estimate = recordedTransform(session, "hmd-camera-calibration", "CameraToHeadset");
+  if (estimate == nullptr) {
+    not_scored.push_back("hmd-camera-calibration (not run, failed, or not acquired from mrsns-sim)");
+    return;
+  }
+  if (!truth.contains("hmd_camera")) {
+    not_scored.push_back("hmd-camera-calibration (the truth has no headset camera)");
+    return;
+  }
+  Eigen::Isometry3d est = Eigen::Isometry3d::Identity(), real = Eigen::Isometry3d::Identity();
+  est.matrix() = matrix(*estimate, "session CameraToHeadset");
+  real.matrix() = matrix(truth["hmd_camera"]["CameraToHeadsetMarker"], "truth CameraToHeadsetMarker");
+  const double angle = Eigen::AngleAxisd(real.linear().transpose() * est.linear()).angle();
+  Json h{{"definition",
+          "the estimated camera pose in the headset marker's frame (CameraToHeadset, paper 000's T_c^h) against "
+          "the truth: rotation and translation error, and the distance between where the estimate and the truth "
+          "put a point 0.5 m and 1 m ahead of the camera"},
+         {"rotation_error_deg", angle * 180.0 / M_PI},
+         {"translation_error_mm", (est.translation() - real.translation()).norm()},
+         {"error_at_500mm_mm", (est * Eigen::Vector3d(0, 0, 500) - real * Eigen::Vector3d(0, 0, 500)).norm()},
+         {"error_at_1000mm_mm", (est * Eigen::Vector3d(0, 0, 1000) - real * Eigen::Vector3d(0, 0, 1000)).norm()}};
+  if (truth["hmd_camera"].contains("noise_model")) h["noise_model"] = truth["hmd_camera"]["noise_model"];
+  scored["hmd_camera_calibration"] = h;
+}
+
 // The HMD calibration against where the headset's world truly is, and the overlay measured where the wearer
 // sees it (paper 001 Eq. 23): the patient's fiducials as the headset displayed them against where they were.
 void scoreHmdCalibration(const Json& session, const Json& truth, Json& scored, Json& not_scored) {
@@ -267,6 +295,8 @@ std::string scoreSession(const std::filesystem::path& session_dir, const std::fi
                    {"shaft_error_deg", angle * 180.0 / M_PI},
                    {"lateral_error_at_40mm_mm", kScrewLengthMm * std::sin(angle)}};
   }
+
+  scoreHmdCameraCalibration(session, st, scored, not_scored);
 
   if (steps.contains("us-temporal-calibration") && steps["us-temporal-calibration"].value("status", "") == "ok" &&
       fromSimulatedRoom(steps["us-temporal-calibration"]) && st.contains("video_lag_s")) {

@@ -588,6 +588,25 @@ std::string World::staticTruthJson() const {
                               {"headset_drift_mm_per_min", scenario_.hmd.drift_mm_per_min},
                               {"tracker_position_rms_mm", scenario_.tracker.noise.position_rms_mm}};
   }
+  if (scenario_.hmd.camera.enabled && !scenario_.hmd.marker_tool.empty()) {
+    // What the checkerboard hand-eye calibration estimates (paper 000's T_c^h), and what the photos are made of.
+    const auto& c = scenario_.hmd.camera;
+    nlohmann::json m = nlohmann::json::array();
+    for (int r = 0; r < 4; ++r) {
+      for (int k = 0; k < 4; ++k) m.push_back(c.marker_T_camera.matrix()(r, k));
+    }
+    j["hmd_camera"] = {{"headset_tool", scenario_.hmd.marker_tool},
+                       {"board_tool", c.board_tool},
+                       {"CameraToHeadsetMarker", m},
+                       {"noise_model",
+                        {{"image_blur_sigma_px", c.blur_sigma_px},
+                         {"image_noise_grey_levels", c.noise_sigma},
+                         {"head_sway_mm", c.head_sway_mm},
+                         {"reported_intrinsics_focal_error_percent", c.intrinsics_focal_error_percent},
+                         {"reported_intrinsics_principal_error_px", c.intrinsics_principal_error_px},
+                         {"tracker_position_rms_mm", scenario_.tracker.noise.position_rms_mm},
+                         {"tracker_orientation_rms_deg", scenario_.tracker.noise.orientation_rms_deg}}}};
+  }
   if (patient_ && patient_->soft_tissue) j["soft_tissue"] = nlohmann::json::parse(patient_->soft_tissue->truthJson());
   if (patient_ && patient_->phantom) {
     nlohmann::json fiducials = nlohmann::json::array();

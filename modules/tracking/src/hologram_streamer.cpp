@@ -1,11 +1,13 @@
 #include "mrsns/tracking/hologram_streamer.h"
 
 #include <cmath>
+#include <optional>
 
 #include "mrsns/core/error.h"
 #include "mrsns/core/log.h"
 #include "mrsns/core/wall_clock.h"
 #include "mrsns/igtlink/codec.h"
+#include "mrsns/igtlink/image.h"
 #include "mrsns/igtlink/polydata_mesh.h"
 #include "mrsns/tracking/unity_convention.h"
 
@@ -191,6 +193,34 @@ void HologramStreamer::setPrompt(const std::string& text) {
   stats_.prompts_queued += ready_.size();
 }
 
+namespace {
+
+// A photo the headset may send: one whole 8-bit grey 2D slice of a sensible size; anything else is not one.
+std::optional<HeadsetCameraImage> cameraImage(const igtlink::Message& message) {
+  const auto* image = message.as<igtlink::ImageContent>();
+  if (image == nullptr || image->components != 1 || image->scalar_type != igtlink::ScalarType::kUint8) {
+    return std::nullopt;
+  }
+  const int width = image->size[0], height = image->size[1];
+  if (image->size[2] != 1 || width < kMinCameraImageSide || height < kMinCameraImageSide ||
+      width > kMaxCameraImageSide || height > kMaxCameraImageSide || image->subvolume_size != image->size ||
+      image->subvolume_offset != std::array<std::uint16_t, 3>{0, 0, 0} ||
+      image->pixels.size() != static_cast<std::size_t>(width) * static_cast<std::size_t>(height)) {
+    return std::nullopt;
+  }
+  HeadsetCameraImage out;
+  out.width = width;
+  out.height = height;
+  out.pixels = image->pixels;
+  out.sent_utc = igtlink::timestampToSeconds(message.header.timestamp);
+  if (const auto k = message.metadataValue("CameraIntrinsics"); k && k->size() <= kMaxCameraIntrinsicsBytes) {
+    out.intrinsics = *k;
+  }
+  return out;
+}
+
+}  // namespace
+
 void HologramStreamer::onClientMessage(igtlink::ClientId client, const igtlink::Message& message) noexcept {
   try {
     if (options_.on_confirmation && message.header.type == "STRING" && message.header.device_name == "Confirm") {
@@ -202,6 +232,18 @@ void HologramStreamer::onClientMessage(igtlink::ClientId client, const igtlink::
         }
         logger()->info("hologram stream: confirmation '{}' from client {}", text->text, client);
         options_.on_confirmation(client, text->text);
+        return;
+      }
+    }
+    if (options_.on_camera_image && message.header.type == "IMAGE" &&
+        message.header.device_name == kCameraImageDevice) {
+      if (auto image = cameraImage(message)) {
+        {
+          std::lock_guard lock(mutex_);
+          ++stats_.camera_images;
+        }
+        logger()->info("hologram stream: camera image {} x {} from client {}", image->width, image->height, client);
+        options_.on_camera_image(client, std::move(*image));
         return;
       }
     }

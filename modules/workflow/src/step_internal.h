@@ -77,6 +77,9 @@ StepResult runSimulatedRegistration(Session& session, const Json& params, const 
 StepResult runHmdCalibration(Session& session, const Json& params, const StepContext& context);
 /// hmd-calibration with source=hmd (the cube held on its hologram in the headset) or file (its recording).
 StepResult runAcquiredHmdCalibration(Session& session, const Json& params, const StepContext& context);
+/// hmd-camera-calibration: paper 000's checkerboard hand-eye calibration from the headset's photos (source=hmd)
+/// or a data set on disk (source=file).
+StepResult runHmdCameraCalibration(Session& session, const Json& params, const StepContext& context);
 StepResult runNavigation(Session& session, const Json& params, const StepContext& context);
 StepResult runRobotPlacement(Session& session, const Json& params, const StepContext& context);
 

@@ -40,6 +40,9 @@ std::vector<StepInfo> listSteps() {
        "Landmarks then surface (ICP) registration of the CT models to the patient"},
       {"hmd-calibration", "HMD calibration", "preparation",
        "Hologram (HoloLens) to tracker calibration with the calibration cube (Eq. 2-3)"},
+      {"hmd-camera-calibration", "HMD camera calibration", "preparation",
+       "The headset camera in the headset marker's frame (CameraToHeadset) from the headset's photos of the tracked "
+       "checkerboard (paper 000's hand-eye method)"},
       {"navigation", "Navigation", "function",
        "Tracking -> repository -> deformation -> supervisor -> hologram stream, every stream recorded"},
       {"robot-placement", "Robot-assisted placement", "function",
@@ -62,6 +65,7 @@ StepResult runStep(Session& session, const std::string& step, const nlohmann::js
       {"robot-calibration", detail::runRobotCalibration},
       {"registration", detail::runRegistration},
       {"hmd-calibration", detail::runHmdCalibration},
+      {"hmd-camera-calibration", detail::runHmdCameraCalibration},
       {"navigation", detail::runNavigation},
       {"robot-placement", detail::runRobotPlacement},
   };

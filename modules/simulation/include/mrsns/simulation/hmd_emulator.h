@@ -33,8 +33,10 @@
 // counter-based generator keyed by (seed, k), so the function is pure and a
 // test can recompute it.
 //
-// Sends nothing but the operator's confirmations (STRING, device "Confirm"),
-// in the header version the stream last used (v1 before anything arrived).
+// Sends nothing but the operator's confirmations (STRING, device "Confirm")
+// and its camera's photos (IMAGE, device "HmdCamera", 8-bit grey; in header
+// v2 with the metadata "CameraIntrinsics"), in the header version the stream
+// last used (v1 before anything arrived).
 // Thread-safe; the handlers run on the client's I/O thread.
 #include <Eigen/Geometry>
 #include <cstdint>
@@ -100,6 +102,7 @@ struct HmdEmulatorStats {
   std::uint64_t malformed = 0;
   std::uint64_t convention_mismatches = 0;
   std::uint64_t confirmations = 0;
+  std::uint64_t images_sent = 0;
 };
 
 class HmdEmulator {
@@ -128,6 +131,11 @@ class HmdEmulator {
   /// "cube-aligned"). False when not connected (nothing is sent). Throws
   /// InvalidArgumentError for an empty text or one over 65535 bytes.
   bool confirm(const std::string& what);
+  /// Sends a photo from the headset's camera (IMAGE, device "HmdCamera": `pixels` grey, row-major, width x
+  /// height) with `intrinsics` as metadata "CameraIntrinsics" when not empty and the stream speaks v2. False
+  /// when not connected. Throws InvalidArgumentError when the pixel count does not match or a side is 0 or over
+  /// 65535.
+  bool sendImage(int width, int height, const std::vector<std::uint8_t>& pixels, const std::string& intrinsics);
   [[nodiscard]] HmdEmulatorStats stats() const;
 
   /// The headset's world frame relative to the hologram frame at headset time

@@ -304,8 +304,41 @@ struct CubeOperatorSpec {
   double jerk_duration_s = 0.05;
 };
 
+/// The headset's photo-video camera and its wearer, for paper 000's checkerboard hand-eye calibration: when
+/// the workstation asks (a prompt containing `prompt_contains` and "view K of N"), the wearer walks to a view of
+/// the tracked checkerboard (the camera 0.5-1.2 m from its centre, up to `max_tilt_deg` off its normal, rolled
+/// up to `max_roll_deg`, the board whole in the image and the headset's marker in the tracker's volume), holds
+/// the head still for `settle_s` with a slow sway, and the headset sends a photo (IMAGE "HmdCamera", rendered
+/// by hmd::renderCheckerboard through the camera's distortion, with blur and sensor noise) and, in header v2,
+/// its intrinsics as the device reports them (the factory calibration: the true ones off by a seeded
+/// `intrinsics_focal_error_percent` and `intrinsics_principal_error_px`). The truth the calibration estimates
+/// is `marker_to_camera` (the camera in the headset marker's frame); the printed pattern sits at
+/// `board_to_grid` on the board's marker (the board definition the workstation is given states it).
+struct HeadsetCameraSpec {
+  bool enabled = false;
+  Eigen::Isometry3d marker_T_camera = Eigen::Isometry3d::Identity();
+  double fx = 1000.0, fy = 1000.0, cx = 640.0, cy = 360.0;
+  std::array<double, 5> distortion{-0.05, 0.02, 0.0, 0.0, 0.0};
+  int width = 1280, height = 720;
+  bool send_intrinsics = true;
+  double intrinsics_focal_error_percent = 0.3;
+  double intrinsics_principal_error_px = 2.0;
+  std::string board_tool = "BoardToTracker";
+  int rows = 3, cols = 5;
+  double square_mm = 40.0;
+  Eigen::Isometry3d board_T_grid = Eigen::Isometry3d::Identity();
+  std::string prompt_contains = "checkerboard";
+  double move_s = 2.0;
+  double settle_s = 1.0;
+  double min_distance_mm = 500.0, max_distance_mm = 1200.0;
+  double max_tilt_deg = 30.0, max_roll_deg = 20.0;
+  double head_sway_mm = 0.2;  ///< per axis, a slow (0.3-0.7 Hz) sway of the head while it holds
+  double blur_sigma_px = 0.7, noise_sigma = 2.0;
+};
+
 struct HmdSpec {
   CubeOperatorSpec cube;
+  HeadsetCameraSpec camera;
   /// The headset's tracked marker (a scenario tool, e.g. HeadsetToTracker): the headset's world frame is
   /// anchored where the marker is when the room starts, at `world_to_marker` from it (the truth an HMD
   /// calibration estimates). Empty: the headset is not tracked.

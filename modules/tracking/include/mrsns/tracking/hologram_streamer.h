@@ -18,11 +18,17 @@
 // (device "Prompt", Reliable channel), and again to a client that connects
 // later, so a headset that reconnects shows what it is asked.
 //
-// Nothing a client sends reaches the repository or the models. One message is
-// let through, and only when the owner asked for it (on_confirmation): a
-// STRING on device "Confirm" of at most kMaxConfirmationBytes, the operator's
-// confirmation from the headset, handed to that callback and nowhere else
-// (the HMD calibration takes it; the stream never passes it to a robot).
+// Nothing a client sends reaches the repository or the models. Two messages are
+// let through, each only when the owner asked for it, handed to that callback
+// and nowhere else (the HMD calibrations take them; the stream never passes
+// them to a robot):
+//  - on_confirmation: a STRING on device "Confirm" of at most
+//    kMaxConfirmationBytes, the operator's confirmation from the headset;
+//  - on_camera_image: an IMAGE on device kCameraImageDevice, a photo from the
+//    headset's camera: 8-bit grey, one component, one whole 2D slice of
+//    kMinCameraImageSide-kMaxCameraImageSide pixels a side (the server's
+//    decode.max_body_size must let it through), with its v2 metadata
+//    "CameraIntrinsics" when the headset sent them.
 // Everything else is counted, logged (rate-limited) and ignored.
 #include <chrono>
 #include <functional>
@@ -51,6 +57,20 @@ struct HologramModel {
 
 /// The longest confirmation text accepted from a client.
 inline constexpr std::size_t kMaxConfirmationBytes = 256;
+/// The device name of the headset camera's photos.
+inline constexpr const char* kCameraImageDevice = "HmdCamera";
+inline constexpr int kMinCameraImageSide = 16;
+inline constexpr int kMaxCameraImageSide = 4096;
+/// The longest "CameraIntrinsics" metadata value kept.
+inline constexpr std::size_t kMaxCameraIntrinsicsBytes = 1024;
+
+/// A photo from the headset's camera, as a client sent it.
+struct HeadsetCameraImage {
+  int width = 0, height = 0;
+  std::vector<std::uint8_t> pixels;  ///< grey, row-major (the IMAGE's i fastest)
+  double sent_utc = 0.0;             ///< the message's header timestamp (the headset's clock; 0: unset)
+  std::string intrinsics;            ///< metadata "CameraIntrinsics" ("fx fy cx cy k1 k2 p1 p2 k3 w h") or empty
+};
 
 struct HologramStreamOptions {
   /// The HMD's hologram (world) frame in the repository.
@@ -67,6 +87,9 @@ struct HologramStreamOptions {
   /// Called on the I/O thread for each operator confirmation (STRING "Confirm") a client sends, with its
   /// text. Empty: confirmations are ignored like any other client message. Must not call the streamer.
   std::function<void(igtlink::ClientId client, const std::string& text)> on_confirmation;
+  /// Called on the I/O thread for each headset camera photo a client sends (see the header comment). Empty:
+  /// photos are ignored like any other client message. Must not call the streamer.
+  std::function<void(igtlink::ClientId client, HeadsetCameraImage image)> on_camera_image;
 };
 
 struct HologramStreamStats {
@@ -77,6 +100,7 @@ struct HologramStreamStats {
   std::uint64_t clients_served = 0;
   std::uint64_t client_messages_ignored = 0;
   std::uint64_t confirmations = 0;
+  std::uint64_t camera_images = 0;
   std::uint64_t prompts_queued = 0;
 };
 
