@@ -133,6 +133,11 @@ TEST(CliTrial, ShortTrialReportHasEveryFigure) {
   ASSERT_TRUE(room["score"]["scored"].contains("hmd_calibration")) << room["score"].dump();
   EXPECT_TRUE(room["score"]["scored"]["hmd_calibration"]["overlay_at_headset"].contains("mean_mm"))
       << "the patient's fiducials shown through the new calibration, measured where the headset displayed them";
+  // Then paper 000's hand-eye calibration of the headset's camera from its own photos of the tracked board.
+  EXPECT_EQ(steps["hmd-camera-calibration"]["figures"]["photos"], 10) << steps["hmd-camera-calibration"].dump();
+  ASSERT_TRUE(room["score"]["scored"].contains("hmd_camera_calibration")) << room["score"].dump();
+  // The headset's own intrinsics (0.3 % focal, 2 px principal point off, 1 SD) bound it: see SimHmdCamera.
+  EXPECT_LT(room["score"]["scored"]["hmd_camera_calibration"]["rotation_error_deg"].get<double>(), 0.75);
   // Paper 001 Fig. 7 and paper 000's protocol are module trials beside it, in the report.
   const auto& modules = report["module_trials"];
   for (const auto& p : {"/cube_trial/compensated/mean_rms_mm", "/cube_trial/uncompensated/mean_rms_mm",

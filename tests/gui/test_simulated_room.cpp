@@ -181,6 +181,18 @@ TEST_F(SimulatedRoomTest, StartConnectAndStopFromTheDevicesMenu) {
   EXPECT_TRUE(window->saveScreenshot(
       QString::fromStdString((mrsns::test::guiArtifactDir() / "main_window_simulated_hmd_calibration.png").string())));
 
+  // Then paper 000's hand-eye calibration of the headset's camera: the wearer looks at the room's tracked board
+  // from ten places when asked, and the headset sends a photo from each.
+  const auto camera_params = window->deviceParams("hmd-camera-calibration");
+  EXPECT_EQ(camera_params.value("hmd_port", 0), window->simulatedRoom()->endpoints().hmd_port);
+  window->findChild<QAction*>("actionStep_hmd-camera-calibration")->trigger();
+  ASSERT_TRUE(mrsns::test::waitUntil([&] { return !window->taskRunning(); }, 150000));
+  const auto after_camera = window->sessionState();
+  const auto& camera = after_camera["steps"]["hmd-camera-calibration"];
+  ASSERT_EQ(camera.value("status", ""), "ok") << camera.dump() << messages();
+  EXPECT_TRUE(camera["figures"]["simulated"].get<bool>());
+  EXPECT_EQ(camera["figures"]["photos"], 10);
+
   EXPECT_TRUE(window->deviceParams("registration").empty()) << "the step itself defaults to the PlusServer";
 
   // The truth stays outside the session folder.

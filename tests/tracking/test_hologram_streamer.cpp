@@ -9,6 +9,7 @@
 
 #include "mrsns/core/error.h"
 #include "mrsns/core/rigid.h"
+#include "mrsns/igtlink/image.h"
 #include "mrsns/igtlink/polydata_mesh.h"
 #include "mrsns/io/sequence_file.h"
 #include "mrsns/tracking/hologram_streamer.h"
@@ -226,6 +227,83 @@ TEST(HologramStream, OnlyAConfirmationReachesItsCallbackAndPromptsReachLateHeads
     if (const auto* text = r.message.as<igtlink::StringContent>()) prompts.push_back(text->text);
   }
   EXPECT_EQ(prompts, (std::vector<std::string>{"line up the cube", "hold it still"}));
+}
+
+igtlink::Message cameraImageMessage(int width, int height, std::uint8_t components = 1,
+                                   igtlink::ScalarType type = igtlink::ScalarType::kUint8,
+                                   const std::string& device = kCameraImageDevice) {
+  igtlink::ImageContent image;
+  image.components = components;
+  image.scalar_type = type;
+  image.resizeWhole({static_cast<std::uint16_t>(width), static_cast<std::uint16_t>(height), 1});
+  for (std::size_t i = 0; i < image.pixels.size(); ++i) image.pixels[i] = static_cast<std::uint8_t>(i % 251);
+  auto m = igtlink::makeMessage(device, std::move(image), 1.7e9);
+  m.metadata.push_back({"CameraIntrinsics", igtlink::kEncodingUsAscii, "1000 1000 32 24 0 0 0 0 0 64 48"});
+  return m;
+}
+
+TEST(HologramStream, OnlyAWholeGreyPhotoOnHmdCameraReachesItsCallbackWithItsIntrinsics) {
+  Scene scene;
+  igtlink::ServerOptions server_options = loopback();
+  // What the camera step allows: a 4096 x 4096 photo; the bigger image below is refused by the framer.
+  server_options.decode.max_body_size = 200 * 1024;
+  igtlink::Server server(server_options);
+  std::mutex mutex;
+  std::vector<HeadsetCameraImage> received;
+  auto options = streamOptions(igtlink::HeaderVersion::kV2);
+  options.on_camera_image = [&](igtlink::ClientId, HeadsetCameraImage image) {
+    std::lock_guard lock(mutex);
+    received.push_back(std::move(image));
+  };
+  HologramStreamer streamer(server, scene.repository, {models()[0]}, options);
+  server.start();
+  test::Recorder recorder(server.port());
+  ASSERT_TRUE(waitFor([&] { return streamer.readyClients() == 1 && recorder.client().connected(); }));
+  const auto edges_before = scene.repository->edges();
+  // Not a photo: three components, 16-bit, another device, too small, a stack of slices.
+  igtlink::ImageContent stack;
+  stack.resizeWhole({64, 48, 2});
+  const std::vector<igtlink::Message> ignored = {
+      cameraImageMessage(64, 48, 3),
+      cameraImageMessage(64, 48, 1, igtlink::ScalarType::kUint16),
+      cameraImageMessage(64, 48, 1, igtlink::ScalarType::kUint8, "Probe"),
+      cameraImageMessage(8, 8),
+      igtlink::makeMessage(kCameraImageDevice, stack),
+  };
+  for (const auto& m : ignored) ASSERT_TRUE(recorder.client().send(m, igtlink::HeaderVersion::kV2));
+  ASSERT_TRUE(waitFor([&] { return streamer.stats().client_messages_ignored == ignored.size(); }));
+  ASSERT_TRUE(recorder.client().send(cameraImageMessage(64, 48), igtlink::HeaderVersion::kV2));
+  ASSERT_TRUE(waitFor([&] { return streamer.stats().camera_images == 1; }));
+  {
+    std::lock_guard lock(mutex);
+    ASSERT_EQ(received.size(), 1U);
+    EXPECT_EQ(received[0].width, 64);
+    EXPECT_EQ(received[0].height, 48);
+    ASSERT_EQ(received[0].pixels.size(), 64U * 48U);
+    EXPECT_EQ(received[0].pixels[300], 300 % 251);
+    EXPECT_EQ(received[0].intrinsics, "1000 1000 32 24 0 0 0 0 0 64 48");
+    EXPECT_NEAR(received[0].sent_utc, 1.7e9, 1e-3);
+  }
+  // A photo over the server's body limit closes that client (the framer refuses it), nothing reaches the step.
+  ASSERT_TRUE(recorder.client().send(cameraImageMessage(1024, 1024), igtlink::HeaderVersion::kV2));
+  ASSERT_TRUE(waitFor([&] { return server.stats().clients_closed_for_protocol_errors == 1; }));
+  EXPECT_EQ(streamer.stats().camera_images, 1U);
+  server.stop();
+  const auto edges_after = scene.repository->edges();
+  ASSERT_EQ(edges_after.size(), edges_before.size());
+}
+
+TEST(HologramStream, APhotoIsIgnoredUnlessItsOwnerAskedForPhotos) {
+  Scene scene;
+  igtlink::Server server(loopback());
+  HologramStreamer streamer(server, scene.repository, {models()[0]}, streamOptions(igtlink::HeaderVersion::kV2));
+  server.start();
+  test::Recorder recorder(server.port());
+  ASSERT_TRUE(waitFor([&] { return streamer.readyClients() == 1 && recorder.client().connected(); }));
+  ASSERT_TRUE(recorder.client().send(cameraImageMessage(64, 48), igtlink::HeaderVersion::kV2));
+  ASSERT_TRUE(waitFor([&] { return streamer.stats().client_messages_ignored == 1; }));
+  EXPECT_EQ(streamer.stats().camera_images, 0U);
+  server.stop();
 }
 
 TEST(HologramStream, UnityConventionMovesConvertedMeshesLikeTheOriginal) {

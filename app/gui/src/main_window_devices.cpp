@@ -93,9 +93,10 @@ nlohmann::json MainWindow::deviceParams(const QString& step) const {
               {"ur_dashboard_port", e.dashboard_port}};
     return params;
   }
-  // The HMD calibration with the headset: the simulated room's (told its port when the room started), or a
-  // real one on the usual hologram port once the session is connected to a PlusServer.
-  if (session_ && step == QStringLiteral("hmd-calibration")) {
+  // The HMD calibrations with the headset (the cube; the camera's photos of the board): the simulated room's
+  // (told its port when the room started), or a real one on the usual hologram port once the session is
+  // connected to a PlusServer.
+  if (session_ && (step == QStringLiteral("hmd-calibration") || step == QStringLiteral("hmd-camera-calibration"))) {
     if (sim_room_ != nullptr && sim_room_->ready() && sim_room_->endpoints().hmd_port > 0) {
       const auto& e = sim_room_->endpoints();
       return {{"source", "hmd"}, {"host", e.host.toStdString()}, {"port", e.plus_port}, {"hmd_port", e.hmd_port}};

@@ -186,17 +186,10 @@ Eigen::Isometry3d isometryOf(const registration::PairedPointResult& r) {
   return t;
 }
 
-}  // namespace
-
-RegistrationAcquisition analyseRegistrationFrames(const std::vector<TrackedFrame>& frames,
-                                                  const RegistrationTargets& targets,
-                                                  const RegistrationAcquisitionOptions& options) {
-  RegistrationAcquisition out;
-  out.frames = frames.size();
-  out.capture_of_fiducial.assign(targets.fiducials_ct.size(), -1);
-  if (frames.empty()) return out;
+std::vector<TipSample> tipSamples(const std::vector<TrackedFrame>& frames, const RegistrationAcquisitionOptions& options,
+                                  std::size_t* frames_without_pose) {
   const auto extraction = extractFramePoses(frames, options.transform);
-  out.frames_without_pose = extraction.invalid_frames + extraction.missing_frames;
+  if (frames_without_pose != nullptr) *frames_without_pose = extraction.invalid_frames + extraction.missing_frames;
   std::vector<TipSample> samples;
   samples.reserve(extraction.poses.size());
   const double tip_length = options.tip_marker.norm();
@@ -206,6 +199,26 @@ RegistrationAcquisition analyseRegistrationFrames(const std::vector<TrackedFrame
     samples.push_back({p.timestamp, p.to_T_from * options.tip_marker, p.to_T_from.translation(),
                        p.to_T_from.linear() * up_marker});
   }
+  return samples;
+}
+
+}  // namespace
+
+std::vector<LandmarkCapture> findTipHolds(const std::vector<TrackedFrame>& frames,
+                                          const RegistrationAcquisitionOptions& options,
+                                          std::size_t* frames_without_pose) {
+  if (frames.empty()) return {};
+  return findHolds(tipSamples(frames, options, frames_without_pose), options);
+}
+
+RegistrationAcquisition analyseRegistrationFrames(const std::vector<TrackedFrame>& frames,
+                                                  const RegistrationTargets& targets,
+                                                  const RegistrationAcquisitionOptions& options) {
+  RegistrationAcquisition out;
+  out.frames = frames.size();
+  out.capture_of_fiducial.assign(targets.fiducials_ct.size(), -1);
+  if (frames.empty()) return out;
+  const auto samples = tipSamples(frames, options, &out.frames_without_pose);
   if (!samples.empty()) out.last_time_s = samples.back().t;
   out.captures = findHolds(samples, options);
 

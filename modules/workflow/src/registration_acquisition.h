@@ -60,6 +60,14 @@ struct RegistrationAcquisition {
   double last_time_s = 0.0;
 };
 
+/// The held-still moments of the tip (options.tip_marker through options.transform) in the frames, with the
+/// same dwell detection as the registration's (dwell_s, dwell_radius_mm, rearm_mm, max_gap_s); `fiducial` is -1.
+/// `frames_without_pose` (optional) counts the frames without the transform. Throws FrameError when no frame
+/// holds the transform at all.
+std::vector<LandmarkCapture> findTipHolds(const std::vector<TrackedFrame>& frames,
+                                          const RegistrationAcquisitionOptions& options,
+                                          std::size_t* frames_without_pose = nullptr);
+
 /// Throws FrameError when no frame holds the transform at all.
 RegistrationAcquisition analyseRegistrationFrames(const std::vector<TrackedFrame>& frames,
                                                   const RegistrationTargets& targets,

@@ -15,6 +15,7 @@
 #include <optional>
 #include <sstream>
 
+#include "checkerboard_board.h"
 #include "landmark_touch_step.h"
 #include "live_tracking_recording.h"
 #include "mrsns/core/format.h"
@@ -36,52 +37,6 @@ namespace fs = std::filesystem;
 
 constexpr const char* kCameraStep = "hmd-camera-calibration";
 constexpr double kCameraRadToDeg = 57.29577951308232;
-
-// The tracked checkerboard: its pattern and where the pattern sits on its marker.
-struct BoardDefinition {
-  std::string name, file;
-  hmd::CheckerboardSpec spec;
-  Eigen::Isometry3d marker_T_grid = Eigen::Isometry3d::Identity();
-};
-
-BoardDefinition readBoardDefinition(const fs::path& file) {
-  std::ifstream in(file);
-  if (!in) throw FileError(std::string(kCameraStep) + ": cannot read the board definition '" + file.string() + "'");
-  Json j;
-  try {
-    j = Json::parse(in);
-  } catch (const Json::parse_error& e) {
-    throw FormatError("'" + file.string() + "' is not valid JSON (" + e.what() + ")");
-  }
-  const std::string where = "'" + file.string() + "'";
-  if (!j.is_object() || j.value("format", "") != "mrsns-checkerboard-board/1") {
-    throw FormatError(where + ": not a checkerboard board definition (\"format\": \"mrsns-checkerboard-board/1\")");
-  }
-  BoardDefinition b;
-  b.file = file.string();
-  b.name = j.value("name", file.stem().string());
-  if (!j.contains("rows") || !j["rows"].is_number_integer() || !j.contains("cols") ||
-      !j["cols"].is_number_integer() || !j.contains("square_mm") || !j["square_mm"].is_number()) {
-    throw FormatError(where + ": needs rows and cols (inner corners, integers) and square_mm");
-  }
-  b.spec = {j["rows"].get<int>(), j["cols"].get<int>(), j["square_mm"].get<double>()};
-  if (b.spec.rows < 2 || b.spec.cols < 2 || b.spec.rows > 30 || b.spec.cols > 30 || !(b.spec.square_mm >= 2.0) ||
-      !(b.spec.square_mm <= 500.0)) {
-    throw FormatError(where + ": rows and cols must be 2-30 inner corners and square_mm 2-500");
-  }
-  if (j.contains("grid_to_marker")) {
-    b.marker_T_grid.matrix() = matrixFromJson(j["grid_to_marker"], where + " grid_to_marker");
-    if (!isRigid(b.marker_T_grid.matrix(), 1e-6)) throw FormatError(where + ": grid_to_marker is not rigid");
-  }
-  return b;
-}
-
-// The board's inner corners in its marker's frame, from its definition.
-std::vector<Eigen::Vector3d> definedCorners(const BoardDefinition& b) {
-  std::vector<Eigen::Vector3d> out;
-  for (const auto& c : hmd::idealGridCorners(b.spec)) out.push_back(b.marker_T_grid * c);
-  return out;
-}
 
 std::string photoFileName(std::size_t i) {
   std::string n = std::to_string(i + 1);
@@ -342,15 +297,18 @@ StepResult runHmdCameraCalibration(Session& session, const Json& params, const S
                   "still_s", "max_still_mm", "max_still_deg", "dataset", "recording"});
   checkCancel(context);
   const std::string source = p.text("source", "hmd");
-  const fs::path board_file =
-      p.has("board") ? fs::path(p.text("board", "")) : resourceDirectory() / "devices" / "checkerboard_board.json";
-  const BoardDefinition board = readBoardDefinition(board_file);
-  // Where the corners are on the board's marker: digitised with the stylus (paper 000 §2.3), else as defined.
+  const BoardDefinition board = boardOfStep(p);
+  const std::string board_tool = p.text("board_tool", "Board");
+  // Where the corners are on the board's marker: as given, else as this session digitised them with the stylus
+  // (paper 000 §2.3), else as the board's definition puts them.
   std::vector<Eigen::Vector3d> corners;
   std::string corners_from;
   if (p.has("corners")) {
     corners = hmd::readBoardCorners(recordingPath(session, p.text("corners", "")));
     corners_from = p.text("corners", "");
+  } else if (const auto digitised = digitisedCorners(session, board_tool, board.spec)) {
+    corners = hmd::readBoardCorners(*digitised);
+    corners_from = "checkerboard-digitisation";
   }
   std::optional<hmd::CameraIntrinsics> given_intrinsics;
   if (p.has("intrinsics")) given_intrinsics = hmd::readCameraIntrinsics(recordingPath(session, p.text("intrinsics", "")));
@@ -365,7 +323,7 @@ StepResult runHmdCameraCalibration(Session& session, const Json& params, const S
     CameraViewAcquisition::Settings s;
     s.views = p.integer("views", s.views);
     s.hmd_transform = p.text("hmd_tool", "Headset") + "ToTracker";
-    s.board_transform = p.text("board_tool", "Board") + "ToTracker";
+    s.board_transform = board_tool + "ToTracker";
     s.board = board.spec;
     s.still_s = p.number("still_s", s.still_s);
     s.max_still_mm = p.number("max_still_mm", s.max_still_mm);
@@ -472,7 +430,7 @@ StepResult runHmdCameraCalibration(Session& session, const Json& params, const S
     }
   } else if (source == "file") {
     for (const char* key : {"host", "port", "duration_s", "connect_timeout_s", "hmd_address", "hmd_port", "unity",
-                            "hmd_wait_s", "photo_wait_s", "views", "hmd_tool", "board_tool", "still_s",
+                            "hmd_wait_s", "photo_wait_s", "views", "hmd_tool", "still_s",
                             "max_still_mm", "max_still_deg", "recording"}) {
       if (p.has(key)) throw InvalidArgumentError(std::string(kCameraStep) + ": " + key + " is for source=hmd");
     }
@@ -495,7 +453,7 @@ StepResult runHmdCameraCalibration(Session& session, const Json& params, const S
   if (!corners.empty()) {
     hmd::writeBoardCorners(dataset / "corners.csv", corners);
   } else if (source == "hmd" || !fs::exists(dataset / "corners.csv")) {
-    hmd::writeBoardCorners(dataset / "corners.csv", definedCorners(board));
+    hmd::writeBoardCorners(dataset / "corners.csv", board.cornersMarker());
     corners_from = "the board definition " + board.file;
   } else {
     corners_from = (dataset / "corners.csv").string();

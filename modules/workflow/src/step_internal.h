@@ -77,6 +77,8 @@ StepResult runSimulatedRegistration(Session& session, const Json& params, const 
 StepResult runHmdCalibration(Session& session, const Json& params, const StepContext& context);
 /// hmd-calibration with source=hmd (the cube held on its hologram in the headset) or file (its recording).
 StepResult runAcquiredHmdCalibration(Session& session, const Json& params, const StepContext& context);
+/// checkerboard-digitisation: the board's corners touched with the stylus (source=plus) or from their recording.
+StepResult runCheckerboardDigitisation(Session& session, const Json& params, const StepContext& context);
 /// hmd-camera-calibration: paper 000's checkerboard hand-eye calibration from the headset's photos (source=hmd)
 /// or a data set on disk (source=file).
 StepResult runHmdCameraCalibration(Session& session, const Json& params, const StepContext& context);

@@ -40,6 +40,9 @@ std::vector<StepInfo> listSteps() {
        "Landmarks then surface (ICP) registration of the CT models to the patient"},
       {"hmd-calibration", "HMD calibration", "preparation",
        "Hologram (HoloLens) to tracker calibration with the calibration cube (Eq. 2-3)"},
+      {"checkerboard-digitisation", "Checkerboard digitisation", "preparation",
+       "The tracked checkerboard's corners touched with the calibrated stylus (paper 000 §2.3): GridToBoard and the "
+       "digitised corners the HMD camera calibration uses"},
       {"hmd-camera-calibration", "HMD camera calibration", "preparation",
        "The headset camera in the headset marker's frame (CameraToHeadset) from the headset's photos of the tracked "
        "checkerboard (paper 000's hand-eye method)"},
@@ -65,6 +68,7 @@ StepResult runStep(Session& session, const std::string& step, const nlohmann::js
       {"robot-calibration", detail::runRobotCalibration},
       {"registration", detail::runRegistration},
       {"hmd-calibration", detail::runHmdCalibration},
+      {"checkerboard-digitisation", detail::runCheckerboardDigitisation},
       {"hmd-camera-calibration", detail::runHmdCameraCalibration},
       {"navigation", detail::runNavigation},
       {"robot-placement", detail::runRobotPlacement},

@@ -156,7 +156,16 @@ TrialResult runPhantomTrial(const TrialOptions& options) {
       hmd["source"] = "hmd";
       hmd["hmd_port"] = room->endpoints()["hmd_port"];
       hmd["duration_s"] = 120.0;
-      plan.push_back({"hmd-calibration", hmd, false, true});
+      // Then paper 000's hand-eye calibration of the headset's camera, when the room's headset sends photos.
+      const bool camera = room->endpoints().value("hmd_camera_operator", false);
+      plan.push_back({"hmd-calibration", hmd, false, !camera});
+      if (camera) {
+        nlohmann::json photos = at_room;
+        photos["source"] = "hmd";
+        photos["hmd_port"] = room->endpoints()["hmd_port"];
+        photos["duration_s"] = 120.0;
+        plan.push_back({"hmd-camera-calibration", photos, false, true});
+      }
     }
   }
   // The real recording (PLUS's fCal data), compared with PLUS's own result.
