@@ -57,6 +57,8 @@ Json endpointsJson(const simulation::OperatingRoomEndpoints& e, const simulation
   if (scenario.hmd.enabled && scenario.hmd.camera.enabled && !scenario.hmd.marker_tool.empty()) {
     j["hmd_camera_operator"] = true;
   }
+  // Someone who touches the board's corners with the stylus when the headset asks.
+  if (scenario.hmd.enabled && scenario.hmd.board_touch.enabled) j["hmd_board_touch"] = true;
   if (e.robot) {
     j["robot"] = {{"rtde", e.rtde_port},
                   {"dashboard", e.dashboard_port},

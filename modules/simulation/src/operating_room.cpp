@@ -26,6 +26,7 @@
 #include "mrsns/simulation/hmd_emulator.h"
 #include "mrsns/simulation/plus_server.h"
 #include "mrsns/simulation/world.h"
+#include "board_toucher.h"
 #include "camera_operator.h"
 #include "cube_operator.h"
 #include "mrsns/hmd/board_renderer.h"
@@ -91,6 +92,8 @@ struct OperatingRoom::Impl {
   std::unique_ptr<CubeOperator> cube_operator;  ///< the HMD calibration's operator (a tracked headset only)
   /// The wearer during the checkerboard hand-eye calibration (a tracked headset with a camera only).
   std::unique_ptr<CameraOperator> camera_operator;
+  /// The operator digitising the board's corners with the stylus, as the headset's prompts ask.
+  std::unique_ptr<BoardToucher> board_toucher;
   /// Renders and sends a photo off the tracker's thread (one at a time).
   std::thread photo_thread;
   /// The headset's world frame in the tracker's, anchored at the start (a tracked headset only).
@@ -110,6 +113,7 @@ struct OperatingRoom::Impl {
   std::vector<HmdTruth> hmd_truth;
   std::vector<CubeOperator::MatchTruth> cube_matches;
   std::vector<CameraOperator::ViewTruth> camera_views;
+  std::vector<BoardToucher::TouchTruth> board_touches;
   std::vector<EventTruth> events;
   OperatingRoomStats stats;
 
@@ -319,6 +323,10 @@ struct OperatingRoom::Impl {
   // the headset's world frame placed by its truth).
   std::vector<World::HeldTool> heldTools(double t, const std::optional<Eigen::Isometry3d>& base_T_flange) {
     std::vector<World::HeldTool> held;
+    if (board_toucher) {
+      const auto& name = scenario.hmd.board_touch.tool;
+      if (auto stylus = board_toucher->pose(t, restingPose(t, base_T_flange, name))) held.push_back({name, *stylus});
+    }
     if (camera_operator) {
       if (auto headset = camera_operator->pose(t, restingPose(t, base_T_flange, scenario.hmd.marker_tool))) {
         held.push_back({scenario.hmd.marker_tool, *headset});
@@ -389,6 +397,13 @@ struct OperatingRoom::Impl {
     for (const auto& prompt : hmd->promptsSince(prompts_seen)) {
       event(t, "hmd prompt: " + prompt, false);
       if (cube_operator) cube_operator->onPrompt(t, prompt);
+      if (board_toucher) {
+        const auto flange = flangeNow();
+        board_toucher->onPrompt(t, prompt, restingPose(t, flange, scenario.hmd.camera.board_tool),
+                                restingPose(t, flange, scenario.hmd.board_touch.tool));
+        std::lock_guard lock(truth_mutex);
+        board_touches = board_toucher->touches();
+      }
       if (camera_operator) {
         const auto flange = flangeNow();
         camera_operator->onPrompt(t, prompt, restingPose(t, flange, scenario.hmd.camera.board_tool),
@@ -681,6 +696,13 @@ void OperatingRoom::start() {
     if (s.hmd.camera.enabled && impl_->tracker_T_hmd_world) {
       impl_->camera_operator = std::make_unique<CameraOperator>(s.hmd.camera, s.tracker.volume, s.seed);
     }
+    if (s.hmd.board_touch.enabled) {
+      for (const auto& tool : s.tools) {
+        if (tool.name == s.hmd.board_touch.tool && tool.tip_tool) {
+          impl_->board_toucher = std::make_unique<BoardToucher>(s.hmd.board_touch, s.hmd.camera, *tool.tip_tool, s.seed);
+        }
+      }
+    }
     impl_->hmd->start();
   }
   impl_->t0 = Clock::now();
@@ -804,6 +826,12 @@ void OperatingRoom::writeTruth(const std::filesystem::path& path) const {
                         {"reachable", v.reachable}});
     }
     if (!photos.empty()) j["hmd_camera_views"] = photos;
+    Json touches = Json::array();
+    for (const auto& b : impl_->board_touches) {
+      const auto& e = b.placement_error_mm;
+      touches.push_back({{"corner", b.corner}, {"prompt_t", b.prompt_t}, {"placement_error_mm", {e.x(), e.y(), e.z()}}});
+    }
+    if (!touches.empty()) j["board_touches"] = touches;
     if (impl_->tracker_T_hmd_world) {
       Json m = Json::array();
       for (int r = 0; r < 4; ++r) {

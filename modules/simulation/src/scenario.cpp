@@ -2,6 +2,7 @@
 // against the keys its reader knows, and errors name the key path.
 #include "mrsns/simulation/scenario.h"
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <initializer_list>
@@ -310,6 +311,24 @@ HeadsetCameraSpec readHeadsetCamera(const Node& n) {
   c.blur_sigma_px = n.number("blur_sigma_px", c.blur_sigma_px, 0.0, 10.0);
   c.noise_sigma = n.number("noise_sigma", c.noise_sigma, 0.0, 100.0);
   return c;
+}
+
+BoardTouchSpec readBoardTouch(const Node& n) {
+  n.allow({"enabled", "tool", "prompt_contains", "travel_s", "down_s", "dwell_s", "approach_mm",
+           "placement_error_mm", "tremor_mm"});
+  BoardTouchSpec b;
+  b.enabled = n.boolean("enabled", true);
+  b.tool = n.text("tool", b.tool);
+  checkToolName(n, "tool", b.tool);
+  b.prompt_contains = n.text("prompt_contains", b.prompt_contains);
+  if (b.prompt_contains.empty()) n.failKey("prompt_contains", "must not be empty");
+  b.travel_s = n.number("travel_s", b.travel_s, 0.1, 60.0);
+  b.down_s = n.number("down_s", b.down_s, 0.05, 10.0);
+  b.dwell_s = n.number("dwell_s", b.dwell_s, 0.1, 60.0);
+  b.approach_mm = n.number("approach_mm", b.approach_mm, 0.0, 500.0);
+  b.placement_error_mm = n.number("placement_error_mm", b.placement_error_mm, 0.0, 20.0);
+  b.tremor_mm = n.number("tremor_mm", b.tremor_mm, 0.0, 20.0);
+  return b;
 }
 
 MotionSegment readSegment(const Node& n) {
@@ -732,7 +751,7 @@ Scenario parseScenario(const std::string& json_text, const std::filesystem::path
   if (root.has("hmd")) {
     const Node n = root.child("hmd");
     n.allow({"enabled", "host", "port", "unity", "drift_mm_per_min", "jitter_mm", "respond", "confirmations",
-             "marker_tool", "world_to_marker", "cube", "camera"});
+             "marker_tool", "world_to_marker", "cube", "camera", "board_touch"});
     s.hmd.marker_tool = n.text("marker_tool", "");
     if (!s.hmd.marker_tool.empty()) checkToolName(n, "marker_tool", s.hmd.marker_tool);
     s.hmd.marker_T_world = n.pose("world_to_marker", s.hmd.marker_T_world);
@@ -776,6 +795,15 @@ Scenario parseScenario(const std::string& json_text, const std::filesystem::path
       }
       if (s.hmd.marker_tool.empty()) {
         n.fail("has a camera but no marker_tool: the headset must be tracked for a hand-eye calibration");
+      }
+    }
+    if (n.has("board_touch")) {
+      s.hmd.board_touch = readBoardTouch(n.child("board_touch"));
+      if (!s.hmd.camera.enabled) n.fail("has a board_touch but no camera: the board is the camera's");
+      const auto tool = std::find_if(s.tools.begin(), s.tools.end(),
+                                     [&](const ToolSpec& t) { return t.name == s.hmd.board_touch.tool; });
+      if (tool == s.tools.end() || !tool->tip_tool) {
+        n.child("board_touch").failKey("tool", "'" + s.hmd.board_touch.tool + "' is not a scenario tool with a tip_mm");
       }
     }
   }

@@ -80,6 +80,37 @@ Eigen::Isometry3d compactPose(const Json& p) {
   return t;
 }
 
+// The board's corners digitised with the stylus against where the printed pattern truly sits on its marker.
+void scoreCheckerboardDigitisation(const Json& session, const Json& truth, Json& scored, Json& not_scored) {
+  const Json* estimate = recordedTransform(session, "checkerboard-digitisation", "GridToBoard");
+  if (estimate == nullptr) {
+    not_scored.push_back("checkerboard-digitisation (not run, failed, or not acquired from mrsns-sim)");
+    return;
+  }
+  if (!truth.contains("hmd_camera") || !truth["hmd_camera"].contains("GridToBoardMarker")) {
+    not_scored.push_back("checkerboard-digitisation (the truth has no tracked board)");
+    return;
+  }
+  Eigen::Isometry3d est = Eigen::Isometry3d::Identity(), real = Eigen::Isometry3d::Identity();
+  est.matrix() = matrix(*estimate, "session GridToBoard");
+  real.matrix() = matrix(truth["hmd_camera"]["GridToBoardMarker"], "truth GridToBoardMarker");
+  const auto& b = truth["hmd_camera"]["board"];
+  double worst = 0.0;
+  for (int r = 0; r < b["rows"].get<int>(); ++r) {
+    for (int c = 0; c < b["cols"].get<int>(); ++c) {
+      const Eigen::Vector3d p(c * b["square_mm"].get<double>(), r * b["square_mm"].get<double>(), 0.0);
+      worst = std::max(worst, (est * p - real * p).norm());
+    }
+  }
+  scored["checkerboard_digitisation"] = {
+      {"definition", "the grid fitted to the touched corners (GridToBoard, paper 000's T_p^b) against where the "
+                     "printed pattern truly sits on the board's marker: rotation, translation, and the farthest corner"},
+      {"rotation_error_deg", Eigen::AngleAxisd(real.linear().transpose() * est.linear()).angle() * 180.0 / M_PI},
+      {"translation_error_mm", (est.translation() - real.translation()).norm()},
+      {"max_corner_error_mm", worst},
+      {"noise_model", {{"placement_error_mm", truth["hmd_camera"].value("board_touch_placement_error_mm", 0.0)}}}};
+}
+
 // Paper 000's hand-eye calibration against the camera's true place on the headset's marker, and what that error
 // does to a point the camera sees 0.5 and 1 m ahead (where a hologram registered through the camera would go).
 void scoreHmdCameraCalibration(const Json& session, const Json& truth, Json& scored, Json& not_scored) {
@@ -296,6 +327,7 @@ std::string scoreSession(const std::filesystem::path& session_dir, const std::fi
                    {"lateral_error_at_40mm_mm", kScrewLengthMm * std::sin(angle)}};
   }
 
+  scoreCheckerboardDigitisation(session, st, scored, not_scored);
   scoreHmdCameraCalibration(session, st, scored, not_scored);
 
   if (steps.contains("us-temporal-calibration") && steps["us-temporal-calibration"].value("status", "") == "ok" &&

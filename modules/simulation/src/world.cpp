@@ -595,8 +595,15 @@ std::string World::staticTruthJson() const {
     for (int r = 0; r < 4; ++r) {
       for (int k = 0; k < 4; ++k) m.push_back(c.marker_T_camera.matrix()(r, k));
     }
+    nlohmann::json g = nlohmann::json::array();
+    for (int r = 0; r < 4; ++r) {
+      for (int k = 0; k < 4; ++k) g.push_back(c.board_T_grid.matrix()(r, k));
+    }
     j["hmd_camera"] = {{"headset_tool", scenario_.hmd.marker_tool},
                        {"board_tool", c.board_tool},
+                       {"board", {{"rows", c.rows}, {"cols", c.cols}, {"square_mm", c.square_mm}}},
+                       {"GridToBoardMarker", g},
+                       {"board_touch_placement_error_mm", scenario_.hmd.board_touch.placement_error_mm},
                        {"CameraToHeadsetMarker", m},
                        {"noise_model",
                         {{"image_blur_sigma_px", c.blur_sigma_px},

@@ -160,6 +160,14 @@ TrialResult runPhantomTrial(const TrialOptions& options) {
       const bool camera = room->endpoints().value("hmd_camera_operator", false);
       plan.push_back({"hmd-calibration", hmd, false, !camera});
       if (camera) {
+        // Paper 000's order: the board's corners digitised with the stylus first (the operator reads the prompts
+        // on the headset), then the photos.
+        if (room->endpoints().value("hmd_board_touch", false)) {
+          nlohmann::json touch = at_room;
+          touch["hmd_port"] = room->endpoints()["hmd_port"];
+          touch["duration_s"] = 120.0;
+          plan.push_back({"checkerboard-digitisation", touch});
+        }
         nlohmann::json photos = at_room;
         photos["source"] = "hmd";
         photos["hmd_port"] = room->endpoints()["hmd_port"];

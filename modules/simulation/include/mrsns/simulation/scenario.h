@@ -336,9 +336,28 @@ struct HeadsetCameraSpec {
   double blur_sigma_px = 0.7, noise_sigma = 2.0;
 };
 
+/// The operator digitising the tracked checkerboard's corners with the stylus (paper 000 §2.3), reading the
+/// workstation's prompts on the headset: on one containing `prompt_contains` and "corner K of N" the stylus
+/// (`tool`, keeping the orientation it rests in) goes in `travel_s` to `approach_mm` above corner K (the board of
+/// `camera`: its marker, pattern and `board_to_grid`), down in `down_s`, and holds the tip on it for `dwell_s`
+/// (placed `placement_error_mm` 3D RMS off the corner, with a tremor of `tremor_mm` per axis at 8-12 Hz), then
+/// lifts back; any other prompt sends it back to where it rests. Needs `camera` and a tool with `tip_mm`.
+struct BoardTouchSpec {
+  bool enabled = false;
+  std::string tool = "StylusToTracker";
+  std::string prompt_contains = "touch corner";
+  double travel_s = 1.2;
+  double down_s = 0.4;
+  double dwell_s = 1.6;
+  double approach_mm = 20.0;
+  double placement_error_mm = 0.25;
+  double tremor_mm = 0.1;
+};
+
 struct HmdSpec {
   CubeOperatorSpec cube;
   HeadsetCameraSpec camera;
+  BoardTouchSpec board_touch;
   /// The headset's tracked marker (a scenario tool, e.g. HeadsetToTracker): the headset's world frame is
   /// anchored where the marker is when the room starts, at `world_to_marker` from it (the truth an HMD
   /// calibration estimates). Empty: the headset is not tracked.
