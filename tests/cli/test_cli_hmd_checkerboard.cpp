@@ -3,6 +3,7 @@
 // corners), the calibration verb reads it back like recorded data.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdint>
 #include <filesystem>
 #include <fstream>
@@ -74,6 +75,99 @@ TEST(CliHmdCheckerboard, TrialWritesDatasetThatCalibrates) {
   for (int i = 0; i < 3; ++i) d2 += std::pow(t_est[i].get<double>() - t_true[i].get<double>(), 2);
   EXPECT_LT(std::sqrt(d2), 9.0);  // the trial test's bound (grid rotation error x 1 m lever)
   EXPECT_TRUE(fs::exists(dir / "CameraToHmd.tfm"));
+}
+
+void writeIntrinsics(const fs::path& path, const json& j) { std::ofstream(path) << j.dump(2); }
+
+json trialCamera() {
+  // hmd::CheckerboardTrialOptions' camera: what the trial renders its images through.
+  return {{"format", "mrsns-camera-intrinsics/1"}, {"fx", 1000.0}, {"fy", 1000.0}, {"cx", 640.0}, {"cy", 360.0},
+          {"distortion", {-0.05, 0.02, 0.0, 0.0, 0.0}}, {"width", 1280}, {"height", 720}};
+}
+
+TEST(CliHmdCheckerboard, AnIntrinsicsFileIsUsedAsGivenAndTheSessionStepSolvesTheSameDataSet) {
+  const fs::path dir = scratchDirectory("checkerboard_intrinsics");
+  ASSERT_EQ(runCli({"hmd-checkerboard-trial", "--poses", "5", "--intrinsics-images", "4", "--seed", "7",
+                    "--write-dataset", (dir / "set").string(), "--json"})
+                .exit_code,
+            0);
+  writeIntrinsics(dir / "camera.json", trialCamera());
+  const auto cal = parse(runCli({"hmd-calibrate-checkerboard", "--dataset", (dir / "set").string(), "--intrinsics",
+                                 (dir / "camera.json").string(), "--json"}));
+  EXPECT_EQ(cal["camera"]["source"], "file");
+  EXPECT_EQ(cal["camera"]["fx"].get<double>(), 1000.0);
+  EXPECT_EQ(cal["camera"]["cy"].get<double>(), 360.0);
+  // The workflow step on the same data set (source=file): the same function, the same numbers, and the user's
+  // folder left as it was.
+  const auto listing = [&] {
+    std::vector<std::string> names;
+    for (const auto& e : fs::recursive_directory_iterator(dir / "set")) names.push_back(e.path().string());
+    std::sort(names.begin(), names.end());
+    return names;
+  };
+  const auto before = listing();
+  const fs::path session = dir / "session";
+  ASSERT_EQ(runCli({"session", "create", session.string()}).exit_code, 0);
+  const auto step = runCli({"session", "run", session.string(), "hmd-camera-calibration", "--param", "source=file",
+                            "--param", "dataset=" + (dir / "set").string(), "--param",
+                            "intrinsics=" + (dir / "camera.json").string(), "--json"});
+  ASSERT_EQ(step.exit_code, 0) << step.err;
+  const auto figures = json::parse(step.out)["figures"];
+  EXPECT_EQ(figures["camera"]["intrinsics_from"].get<std::string>().rfind("file", 0), 0U);
+  EXPECT_EQ(figures["board"]["corners_from"], (dir / "set" / "corners.csv").string());
+  for (std::size_t k = 0; k < 16; ++k) {
+    EXPECT_NEAR(figures["transforms"]["CameraToHeadset"][k].get<double>(),
+                cal["hmd_T_camera"]["matrix_row_major"][k].get<double>(), 1e-12);
+  }
+  EXPECT_EQ(listing(), before);
+  // Without an intrinsics file the data set's printed-board images give them, as in the verb.
+  const auto by_images = runCli({"session", "run", session.string(), "hmd-camera-calibration", "--param",
+                                 "source=file", "--param", "dataset=" + (dir / "set").string(), "--json"});
+  ASSERT_EQ(by_images.exit_code, 0) << by_images.err;
+  EXPECT_EQ(json::parse(by_images.out)["figures"]["camera"]["intrinsics_from"], "calibration images");
+  // Live parameters are refused for a file, a missing data set is named.
+  auto r = runCli({"session", "run", session.string(), "hmd-camera-calibration", "--param", "source=file", "--param",
+                   "dataset=" + (dir / "set").string(), "--param", "views=5"});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("views is for source=hmd"), std::string::npos) << r.err;
+  r = runCli({"session", "run", session.string(), "hmd-camera-calibration", "--param", "source=file", "--param",
+              "dataset=" + (dir / "nothing").string()});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("is not a folder"), std::string::npos) << r.err;
+}
+
+TEST(CliHmdCheckerboard, IntrinsicsACameraCannotHaveAreRefusedNamingWhatIsWrong) {
+  const fs::path dir = scratchDirectory("checkerboard_bad_intrinsics");
+  ASSERT_EQ(runCli({"hmd-checkerboard-trial", "--poses", "3", "--intrinsics-images", "4", "--seed", "8",
+                    "--write-dataset", (dir / "set").string(), "--json"})
+                .exit_code,
+            0);
+  const std::vector<std::pair<json, std::string>> cases = {
+      {json{{"fx", -5.0}}, "focal lengths fx, fy must be positive"},
+      {json{{"cx", 5000.0}}, "principal point"},
+      {json{{"width", 640}}, "are for 640 x 720 pixels, the images are 1280 x 720"},
+      {json{{"format", "opencv"}}, "mrsns-camera-intrinsics/1"},
+      {json{{"distortion", {1, 2}}}, "distortion"},
+  };
+  for (const auto& [patch, message] : cases) {
+    json j = trialCamera();
+    j.update(patch);
+    writeIntrinsics(dir / "k.json", j);
+    const auto r = runCli({"hmd-calibrate-checkerboard", "--dataset", (dir / "set").string(), "--intrinsics",
+                           (dir / "k.json").string(), "--json"});
+    EXPECT_EQ(r.exit_code, 1) << patch.dump();
+    EXPECT_NE(r.err.find(message), std::string::npos) << patch.dump() << ": " << r.err;
+    EXPECT_TRUE(r.out.empty());
+  }
+  std::ofstream(dir / "k.json") << "{ not json";
+  auto r = runCli({"hmd-calibrate-checkerboard", "--dataset", (dir / "set").string(), "--intrinsics",
+                   (dir / "k.json").string()});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("not valid JSON"), std::string::npos) << r.err;
+  r = runCli({"hmd-calibrate-checkerboard", "--dataset", (dir / "set").string(), "--intrinsics",
+              (dir / "missing.json").string()});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("do not exist"), std::string::npos) << r.err;
 }
 
 TEST(CliHmdCheckerboard, BadInputGivesOneLineErrors) {

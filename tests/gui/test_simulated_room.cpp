@@ -181,8 +181,14 @@ TEST_F(SimulatedRoomTest, StartConnectAndStopFromTheDevicesMenu) {
   EXPECT_TRUE(window->saveScreenshot(
       QString::fromStdString((mrsns::test::guiArtifactDir() / "main_window_simulated_hmd_calibration.png").string())));
 
-  // Then paper 000's hand-eye calibration of the headset's camera: the wearer looks at the room's tracked board
-  // from ten places when asked, and the headset sends a photo from each.
+  // Then paper 000's hand-eye calibration of the headset's camera: the board's corners touched with the stylus
+  // as the headset asks, then the wearer looks at the board from ten places and the headset sends a photo of each.
+  window->findChild<QAction*>("actionStep_checkerboard-digitisation")->trigger();
+  ASSERT_TRUE(mrsns::test::waitUntil([&] { return !window->taskRunning(); }, 150000));
+  const auto after_board = window->sessionState();
+  const auto& board = after_board["steps"]["checkerboard-digitisation"];
+  ASSERT_EQ(board.value("status", ""), "ok") << board.dump() << messages();
+  EXPECT_EQ(board["figures"]["grid"]["inliers"], 15);
   const auto camera_params = window->deviceParams("hmd-camera-calibration");
   EXPECT_EQ(camera_params.value("hmd_port", 0), window->simulatedRoom()->endpoints().hmd_port);
   window->findChild<QAction*>("actionStep_hmd-camera-calibration")->trigger();
@@ -192,6 +198,9 @@ TEST_F(SimulatedRoomTest, StartConnectAndStopFromTheDevicesMenu) {
   ASSERT_EQ(camera.value("status", ""), "ok") << camera.dump() << messages();
   EXPECT_TRUE(camera["figures"]["simulated"].get<bool>());
   EXPECT_EQ(camera["figures"]["photos"], 10);
+  EXPECT_EQ(camera["figures"]["board"]["corners_from"], "checkerboard-digitisation");
+  EXPECT_TRUE(window->saveScreenshot(
+      QString::fromStdString((mrsns::test::guiArtifactDir() / "main_window_simulated_hmd_camera.png").string())));
 
   EXPECT_TRUE(window->deviceParams("registration").empty()) << "the step itself defaults to the PlusServer";
 

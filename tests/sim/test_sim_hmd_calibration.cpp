@@ -44,6 +44,9 @@ std::filesystem::path writeHmdScenario(const std::filesystem::path& dir, int see
   EXPECT_EQ(tools.size(), 2U) << "the default scenario's cube and headset";
   s["tools"] = tools;
   s["hmd"]["port"] = hmd_port;
+  // Without the board (and so its camera and the stylus touching it).
+  s["hmd"].erase("camera");
+  s["hmd"].erase("board_touch");
   for (const auto& [key, value] : cube.items()) s["hmd"]["cube"][key] = value;
   const auto file = dir / "hmd.json";
   std::ofstream(file) << s.dump(2);

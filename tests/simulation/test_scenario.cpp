@@ -72,6 +72,40 @@ TEST(Scenario, DevicesNeedTheirToolsAndSomethingToImage) {
   EXPECT_NE(messageOf(fault).find("not one of the scenario's tools"), std::string::npos);
 }
 
+TEST(Scenario, TheHeadsetsCameraAndTheBoardsToucherNeedWhatTheyWorkOn) {
+  const std::string tools = R"({"format": "mrsns-scenario/1", "tools": [
+      {"name": "StylusToTracker", "tip_mm": [0, 0, -160]}, {"name": "BoardToTracker"}, {"name": "HeadsetToTracker"}],
+      "hmd": )";
+  const auto hmd = [&](const std::string& body) { return messageOf(tools + body + "}"); };
+  // A camera needs a tracked headset (its truth is relative to the headset's marker) and a board that exists.
+  EXPECT_NE(hmd(R"({"camera": {}})").find("no marker_tool"), std::string::npos);
+  EXPECT_NE(hmd(R"({"marker_tool": "HeadsetToTracker", "camera": {"board_tool": "PlateToTracker"}})")
+                .find("'hmd.camera.board_tool' 'PlateToTracker' is not one of the scenario's tools"),
+            std::string::npos);
+  EXPECT_NE(hmd(R"({"marker_tool": "HeadsetToTracker", "camera": {"distortion": [0.1, 0.0]}})")
+                .find("'hmd.camera.distortion' must be [k1, k2, p1, p2, k3]"),
+            std::string::npos);
+  EXPECT_NE(hmd(R"({"marker_tool": "HeadsetToTracker", "camera": {"cx": 5000}})").find("hmd.camera.cx"),
+            std::string::npos);
+  EXPECT_NE(hmd(R"({"marker_tool": "HeadsetToTracker", "camera": {"distance_mm": [900, 500]}})")
+                .find("low <= high"),
+            std::string::npos);
+  // The toucher touches the camera's board with a tool that has a tip.
+  EXPECT_NE(hmd(R"({"board_touch": {}})").find("no camera"), std::string::npos);
+  EXPECT_NE(hmd(R"({"marker_tool": "HeadsetToTracker", "camera": {}, "board_touch": {"tool": "BoardToTracker"}})")
+                .find("with a tip_mm"),
+            std::string::npos);
+  const auto s = parseScenario(
+      tools + R"({"marker_tool": "HeadsetToTracker", "camera": {"width": 640, "height": 480},
+                  "board_touch": {"misplaced": [{"corner": 3, "offset_mm": [40, 0, 0]}]}}})",
+      ".");
+  EXPECT_TRUE(s.hmd.camera.enabled);
+  EXPECT_DOUBLE_EQ(s.hmd.camera.cx, 320.0) << "the principal point defaults to the image's centre";
+  EXPECT_EQ(s.hmd.camera.rows * s.hmd.camera.cols, 15);
+  ASSERT_EQ(s.hmd.board_touch.misplaced.size(), 1U);
+  EXPECT_EQ(s.hmd.board_touch.misplaced[0].corner, 3);
+}
+
 TEST(Scenario, MissingFilesAreNamed) {
   const std::string labels = R"({"format": "mrsns-scenario/1", "tools": [{"name": "ReferenceToTracker"}],
                                  "patient": {"labels": "no/such/ct_labels.nii.gz"}})";

@@ -96,6 +96,12 @@ nlohmann::json MainWindow::deviceParams(const QString& step) const {
   // The HMD calibrations with the headset (the cube; the camera's photos of the board): the simulated room's
   // (told its port when the room started), or a real one on the usual hologram port once the session is
   // connected to a PlusServer.
+  // The board's digitisation: its prompts also go to the room's headset, where its operator reads them.
+  if (session_ && step == QStringLiteral("checkerboard-digitisation") && sim_room_ != nullptr && sim_room_->ready() &&
+      sim_room_->endpoints().hmd_port > 0) {
+    const auto& e = sim_room_->endpoints();
+    return {{"host", e.host.toStdString()}, {"port", e.plus_port}, {"hmd_port", e.hmd_port}};
+  }
   if (session_ && (step == QStringLiteral("hmd-calibration") || step == QStringLiteral("hmd-camera-calibration"))) {
     if (sim_room_ != nullptr && sim_room_->ready() && sim_room_->endpoints().hmd_port > 0) {
       const auto& e = sim_room_->endpoints();

@@ -56,7 +56,13 @@ void BoardToucher::onPrompt(double t, const std::string& prompt, const Eigen::Is
   const int k = corner - 1;
   const Eigen::Vector3d grid(k % board_.cols * board_.square_mm, k / board_.cols * board_.square_mm, 0.0);
   std::normal_distribution<double> n(0.0, spec_.placement_error_mm / std::sqrt(3.0));
-  const Eigen::Vector3d error(n(rng_), n(rng_), n(rng_));
+  Eigen::Vector3d error(n(rng_), n(rng_), n(rng_));
+  // A corner misplaced the first time it is asked for.
+  bool asked_before = false;
+  for (const auto& t : touches_) asked_before = asked_before || t.corner == corner;
+  for (const auto& m : spec_.misplaced) {
+    if (m.corner == corner && !asked_before) error += m.offset_mm;
+  }
   target_ = tracker_T_board * (board_.board_T_grid * grid + error);
   touches_.push_back({corner, t, error});
   start_t_ = t;

@@ -315,8 +315,12 @@ HeadsetCameraSpec readHeadsetCamera(const Node& n) {
 
 BoardTouchSpec readBoardTouch(const Node& n) {
   n.allow({"enabled", "tool", "prompt_contains", "travel_s", "down_s", "dwell_s", "approach_mm",
-           "placement_error_mm", "tremor_mm"});
+           "placement_error_mm", "tremor_mm", "misplaced"});
   BoardTouchSpec b;
+  for (const auto& m : n.array("misplaced")) {
+    m.allow({"corner", "offset_mm"});
+    b.misplaced.push_back({m.integer("corner", 1, 1, 900), m.vector3("offset_mm", Eigen::Vector3d::Zero())});
+  }
   b.enabled = n.boolean("enabled", true);
   b.tool = n.text("tool", b.tool);
   checkToolName(n, "tool", b.tool);

@@ -442,7 +442,6 @@ StepResult runHmdCameraCalibration(Session& session, const Json& params, const S
     if (!fs::is_directory(dataset)) {
       throw FileError(std::string(kCameraStep) + ": the data set '" + dataset.string() + "' is not a folder");
     }
-    if (given_intrinsics) hmd::writeCameraIntrinsics(dataset / "intrinsics.json", *given_intrinsics);
   } else {
     throw InvalidArgumentError(std::string(kCameraStep) + ": source must be hmd (live, with the headset) or file, not '" +
                                source + "'");
@@ -450,17 +449,26 @@ StepResult runHmdCameraCalibration(Session& session, const Json& params, const S
 
   checkCancel(context);
   context.report(0.9, "the board found in every photo, the hand-eye calibration solved");
+  // The live acquisition's data set gets its corners; a user's data set on disk is never written to: what the
+  // step chose goes into its own folder and the solution reads it from there.
+  auto files = hmd::checkerboardDatasetIn(dataset);
+  const bool own = source == "hmd";
+  auto keep_corners = [&](const std::vector<Eigen::Vector3d>& points) {
+    files.corners = own ? dataset / "corners.csv"
+                        : session.resolve(freeSessionName(session, kCameraStep, "corners", ".csv"));
+    hmd::writeBoardCorners(files.corners, points);
+  };
   if (!corners.empty()) {
-    hmd::writeBoardCorners(dataset / "corners.csv", corners);
-  } else if (source == "hmd" || !fs::exists(dataset / "corners.csv")) {
-    hmd::writeBoardCorners(dataset / "corners.csv", board.cornersMarker());
+    keep_corners(corners);
+  } else if (own || !fs::exists(dataset / "corners.csv")) {
+    keep_corners(board.cornersMarker());
     corners_from = "the board definition " + board.file;
   } else {
     corners_from = (dataset / "corners.csv").string();
   }
+  if (!own && given_intrinsics) files.intrinsics = recordingPath(session, p.text("intrinsics", ""));
   hmd::CheckerboardDatasetOptions options;
   options.board = board.spec;
-  const auto files = hmd::checkerboardDatasetIn(dataset);
   const auto solution = hmd::calibrateCheckerboardDataset(files, options);
   const auto& he = solution.hand_eye;
   const std::string tfm = freeSessionName(session, kCameraStep, "CameraToHeadset", ".tfm");
@@ -508,7 +516,13 @@ StepResult runHmdCameraCalibration(Session& session, const Json& params, const S
                             {"paper_000_mm", "3.2 +- 1.6 (HoloLens 2, 150 patterns)"}};
   result.figures["transforms"] = {{"CameraToHeadset", matrixJson(he.hmd_T_camera.matrix())}};
   result.figures["dataset"] = dataset.string();
-  result.figures["offline_command"] = "mrsns-cli hmd-calibrate-checkerboard --dataset " + dataset.string() +
+  std::string inputs = "--images " + files.images.string() + " --hmd-poses " + files.hmd_poses.string() +
+                       " --board-poses " + files.board_poses.string() + " --corners " + files.corners.string();
+  if (!files.intrinsics.empty()) inputs += " --intrinsics " + files.intrinsics.string();
+  if (files.intrinsics.empty() && !files.calibration_images.empty()) {
+    inputs += " --calibration-images " + files.calibration_images.string();
+  }
+  result.figures["offline_command"] = "mrsns-cli hmd-calibrate-checkerboard " + inputs +
                                       " --rows " + std::to_string(board.spec.rows) + " --cols " +
                                       std::to_string(board.spec.cols) + " --square " +
                                       formatFixed(board.spec.square_mm, 6);

@@ -352,6 +352,13 @@ struct BoardTouchSpec {
   double approach_mm = 20.0;
   double placement_error_mm = 0.25;
   double tremor_mm = 0.1;
+  /// Corners touched at the wrong place the first time they are asked for (a fault): 1-based corner, offset in
+  /// the board marker's frame (mm). Asked again, the operator touches it right.
+  struct Misplaced {
+    int corner = 1;
+    Eigen::Vector3d offset_mm = Eigen::Vector3d::Zero();
+  };
+  std::vector<Misplaced> misplaced;
 };
 
 struct HmdSpec {
