@@ -1,6 +1,9 @@
 #pragma once
 // Runs the real mrsns-sim binary from tests: to completion (exit code, stdout,
 // stderr) or in the background until its ready file appears.
+#include <gtest/gtest.h>
+
+#include <algorithm>
 #include <chrono>
 #include <filesystem>
 #include <nlohmann/json.hpp>
@@ -10,6 +13,7 @@
 
 #include "background_process.h"
 #include "cli_runner.h"
+#include "test_data.h"
 
 namespace mrsns::test {
 
@@ -22,6 +26,28 @@ inline std::filesystem::path simBinary() {
 /// The bundled default scenario (the source tree's).
 inline std::filesystem::path defaultScenario() {
   return std::filesystem::path(MRSNS_TEST_SOURCE_DIR) / ".." / "resources" / "scenarios" / "default.json";
+}
+
+/// The default room without its patient, robot, probe, phantoms or faults, and with only the tools named (in
+/// the default's order; a test fails when one is missing): for a test of one device or task. Its tracker on a
+/// port of the system's choice, running until stopped, its headset pointed at `hmd_port`.
+inline nlohmann::json defaultRoomWith(const std::string& name, int seed, std::uint16_t hmd_port,
+                                      const std::vector<std::string>& tools) {
+  nlohmann::json s = nlohmann::json::parse(slurpFile(defaultScenario()));
+  s["name"] = name;
+  s["seed"] = seed;
+  s["duration_s"] = 0.0;
+  s["tracker"]["port"] = 0;
+  for (const char* key : {"patient", "robot", "flat_target", "ultrasound", "nwire_phantom"}) s.erase(key);
+  s["faults"] = nlohmann::json::array();
+  nlohmann::json kept = nlohmann::json::array();
+  for (const auto& tool : s["tools"]) {
+    if (std::find(tools.begin(), tools.end(), tool["name"].get<std::string>()) != tools.end()) kept.push_back(tool);
+  }
+  EXPECT_EQ(kept.size(), tools.size()) << "the default scenario's tools " << nlohmann::json(tools).dump();
+  s["tools"] = kept;
+  s["hmd"]["port"] = hmd_port;
+  return s;
 }
 
 /// `mrsns-sim ARGS...` to completion.

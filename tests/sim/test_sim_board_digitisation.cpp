@@ -26,33 +26,19 @@ using Json = nlohmann::json;
 /// The default room's reference, stylus (its pivot only), board and headset, with `board_touch` overrides.
 std::filesystem::path writeBoardScenario(const std::filesystem::path& dir, int seed, std::uint16_t hmd_port,
                                          const Json& board_touch) {
-  Json s = Json::parse(slurpFile(defaultScenario()));
-  s["name"] = "board digitisation";
-  s["seed"] = seed;
-  s["duration_s"] = 0.0;
-  s["tracker"]["port"] = 0;
-  for (const char* key : {"patient", "robot", "flat_target", "ultrasound", "nwire_phantom"}) s.erase(key);
-  s["faults"] = Json::array();
-  Json tools = Json::array();
-  for (auto tool : s["tools"]) {
-    const std::string name = tool["name"];
-    if (name == "StylusToTracker") {
-      Json motion = Json::array();
-      for (const auto& m : tool["motion"]) {
-        motion.push_back(m);
-        if (m["kind"] == "pivot") break;
-      }
-      motion.push_back({{"kind", "hold"}, {"duration_s", 1.0}});
-      tool["motion"] = motion;
+  Json s = defaultRoomWith("board digitisation", seed, hmd_port,
+                           {"ReferenceToTracker", "StylusToTracker", "BoardToTracker", "HeadsetToTracker"});
+  // The stylus's pivot only (its calibrated tip), then it rests until the headset asks for the corners.
+  for (auto& tool : s["tools"]) {
+    if (tool["name"] != "StylusToTracker") continue;
+    Json motion = Json::array();
+    for (const auto& m : tool["motion"]) {
+      motion.push_back(m);
+      if (m["kind"] == "pivot") break;
     }
-    if (name == "ReferenceToTracker" || name == "StylusToTracker" || name == "BoardToTracker" ||
-        name == "HeadsetToTracker") {
-      tools.push_back(tool);
-    }
+    motion.push_back({{"kind", "hold"}, {"duration_s", 1.0}});
+    tool["motion"] = motion;
   }
-  EXPECT_EQ(tools.size(), 4U);
-  s["tools"] = tools;
-  s["hmd"]["port"] = hmd_port;
   s["hmd"].erase("cube");
   for (const auto& [key, value] : board_touch.items()) s["hmd"]["board_touch"][key] = value;
   const auto file = dir / "board.json";

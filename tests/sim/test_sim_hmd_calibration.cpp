@@ -30,20 +30,8 @@ using Json = nlohmann::json;
 /// `hmd_port`, with `faults`.
 std::filesystem::path writeHmdScenario(const std::filesystem::path& dir, int seed, std::uint16_t hmd_port,
                                        const Json& faults, const Json& cube = Json::object()) {
-  Json s = Json::parse(slurpFile(defaultScenario()));
-  s["name"] = "hmd calibration";
-  s["seed"] = seed;
-  s["duration_s"] = 0.0;
-  s["tracker"]["port"] = 0;
-  for (const char* key : {"patient", "robot", "flat_target", "ultrasound", "nwire_phantom"}) s.erase(key);
+  Json s = defaultRoomWith("hmd calibration", seed, hmd_port, {"CubeToTracker", "HeadsetToTracker"});
   s["faults"] = faults;
-  Json tools = Json::array();
-  for (const auto& tool : s["tools"]) {
-    if (tool["name"] == "CubeToTracker" || tool["name"] == "HeadsetToTracker") tools.push_back(tool);
-  }
-  EXPECT_EQ(tools.size(), 2U) << "the default scenario's cube and headset";
-  s["tools"] = tools;
-  s["hmd"]["port"] = hmd_port;
   // Without the board (and so its camera and the stylus touching it).
   s["hmd"].erase("camera");
   s["hmd"].erase("board_touch");

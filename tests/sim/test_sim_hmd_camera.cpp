@@ -32,20 +32,8 @@ using Json = nlohmann::json;
 /// overrides keys of hmd.camera.
 std::filesystem::path writeCameraScenario(const std::filesystem::path& dir, int seed, std::uint16_t hmd_port,
                                           const Json& faults, const Json& camera = Json::object()) {
-  Json s = Json::parse(slurpFile(defaultScenario()));
-  s["name"] = "hmd camera calibration";
-  s["seed"] = seed;
-  s["duration_s"] = 0.0;
-  s["tracker"]["port"] = 0;
-  for (const char* key : {"patient", "robot", "flat_target", "ultrasound", "nwire_phantom"}) s.erase(key);
+  Json s = defaultRoomWith("hmd camera calibration", seed, hmd_port, {"BoardToTracker", "HeadsetToTracker"});
   s["faults"] = faults;
-  Json tools = Json::array();
-  for (const auto& tool : s["tools"]) {
-    if (tool["name"] == "BoardToTracker" || tool["name"] == "HeadsetToTracker") tools.push_back(tool);
-  }
-  EXPECT_EQ(tools.size(), 2U) << "the default scenario's board and headset";
-  s["tools"] = tools;
-  s["hmd"]["port"] = hmd_port;
   s["hmd"].erase("cube");
   s["hmd"].erase("board_touch");  // no stylus here: the board's definition places its corners
   for (const auto& [key, value] : camera.items()) s["hmd"]["camera"][key] = value;

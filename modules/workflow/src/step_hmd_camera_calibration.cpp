@@ -17,6 +17,7 @@
 
 #include "checkerboard_board.h"
 #include "landmark_touch_step.h"
+#include "headset_wait.h"
 #include "live_tracking_recording.h"
 #include "mrsns/core/format.h"
 #include "mrsns/core/rigid.h"
@@ -111,15 +112,9 @@ class CameraViewAcquisition {
           ask("");
           break;
         }
-        if (elapsed() > s_.hmd_wait_s) {
-          failure_ = (drops_ == 0 ? "no headset connected to the hologram stream at " + s_.endpoint
-                                  : "the headset left and did not come back to " + s_.endpoint) +
-                     " within " + formatFixed(s_.hmd_wait_s, 0) +
-                     " s (is the HMD app running and pointed at this workstation?)";
-          return true;
-        }
-        message = drops_ == 0 ? "waiting for the headset to connect to the hologram stream at " + s_.endpoint
-                              : "the headset left: waiting for it to come back (view " + viewLabel() + " again)";
+        failure_ = headsetWaitFailure(drops_, s_.endpoint, elapsed(), s_.hmd_wait_s);
+        if (!failure_.empty()) return true;
+        message = headsetWaitMessage(drops_, s_.endpoint, "view " + viewLabel());
         return false;
       case Phase::Asking:
         if (!headset) {
