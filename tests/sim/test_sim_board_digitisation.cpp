@@ -155,16 +155,17 @@ TEST(SimBoardDigitisation, TheCornersTouchedWithTheStylusPlaceTheGridOverThreeSe
 }
 
 TEST(SimBoardDigitisation, AWrongCornerIsRefusedByNameAndOneOffTheGridIsAskedAgain) {
-  // Corner 3 touched where corner 4 is, corner 7 touched 3 mm off the board's face; each the first time only.
+  // Corner 3 touched where corner 4 is, the last corner 3 mm off the board's face; each the first time only.
+  // The last one is asked again while the tip still rests there: that rest is not its new touch.
   const Json misplaced = {{"misplaced", Json::parse(R"([{"corner": 3, "offset_mm": [40, 0, 0]},
-                                                        {"corner": 7, "offset_mm": [0, 0, 3]}])")}};
+                                                        {"corner": 15, "offset_mm": [0, 0, 3]}])")}};
   const auto run = runBoard("sim-board-faults", 4, misplaced, false);
   ASSERT_EQ(run.digitisation.exit_code, 0) << run.digitisation.err << run.digitisation.out;
   const auto& rejected = run.figures["acquisition"]["rejected_touches"];
   std::string all;
   for (const auto& r : rejected) all += r.get<std::string>() + "\n";
   EXPECT_NE(all.find("corner 3: that was corner 4"), std::string::npos) << all;
-  EXPECT_NE(all.find("corner 7: more than 1.5 mm off the grid"), std::string::npos) << all;
+  EXPECT_NE(all.find("corner 15: more than 1.5 mm off the grid"), std::string::npos) << all;
   EXPECT_EQ(run.figures["grid"]["inliers"], 15);
   ASSERT_TRUE(run.score.contains("checkerboard_digitisation")) << run.score.dump();
   EXPECT_LT(run.score["checkerboard_digitisation"]["max_corner_error_mm"].get<double>(), 0.7);

@@ -102,7 +102,7 @@ void expectNoCameraTruthIn(const std::filesystem::path& session) {
   for (const auto& entry : std::filesystem::recursive_directory_iterator(session)) {
     if (!entry.is_regular_file() || entry.path().extension() == ".raw" || entry.path().extension() == ".png") continue;
     const auto text = slurpFile(entry.path());
-    for (const char* word : {"truth", "CameraToHeadsetMarker", "hmd_camera_operator", "marker_to_camera"}) {
+    for (const char* word : {"truth", "CameraToHeadsetMarker", "hmd_camera_operator", "camera_to_marker"}) {
       EXPECT_EQ(text.find(word), std::string::npos) << entry.path() << " holds '" << word << "'";
     }
   }

@@ -59,7 +59,7 @@ void BoardToucher::onPrompt(double t, const std::string& prompt, const Eigen::Is
   Eigen::Vector3d error(n(rng_), n(rng_), n(rng_));
   // A corner misplaced the first time it is asked for.
   bool asked_before = false;
-  for (const auto& t : touches_) asked_before = asked_before || t.corner == corner;
+  for (const auto& touch : touches_) asked_before = asked_before || touch.corner == corner;
   for (const auto& m : spec_.misplaced) {
     if (m.corner == corner && !asked_before) error += m.offset_mm;
   }

@@ -52,8 +52,10 @@ class CubeOperator {
     double hold_t = 0.0;                       ///< when the cube reached it
     bool confirmed = false;
     // The hand during the hold.
-    Eigen::Vector3d tremor_amplitude, tremor_hz, tremor_phase, rotation_amplitude, rotation_hz, rotation_phase;
-    Eigen::Vector3d drift_direction;
+    Eigen::Vector3d tremor_amplitude = Eigen::Vector3d::Zero(), tremor_hz = Eigen::Vector3d::Zero(),
+                    tremor_phase = Eigen::Vector3d::Zero(), rotation_amplitude = Eigen::Vector3d::Zero(),
+                    rotation_hz = Eigen::Vector3d::Zero(), rotation_phase = Eigen::Vector3d::Zero();
+    Eigen::Vector3d drift_direction = Eigen::Vector3d::UnitX();
     std::vector<std::pair<double, Eigen::Vector3d>> jerks;  ///< start (s after hold_t), slip
   };
   Eigen::Isometry3d perceive(Match& m, const Eigen::Isometry3d& tracker_T_hologram);

@@ -265,13 +265,13 @@ void checkToolName(const Node& n, const char* key, const std::string& name) {
 }
 
 HeadsetCameraSpec readHeadsetCamera(const Node& n) {
-  n.allow({"enabled", "marker_to_camera", "fx", "fy", "cx", "cy", "distortion", "width", "height", "send_intrinsics",
+  n.allow({"enabled", "camera_to_marker", "fx", "fy", "cx", "cy", "distortion", "width", "height", "send_intrinsics",
            "intrinsics_focal_error_percent", "intrinsics_principal_error_px", "board_tool", "rows", "cols",
-           "square_mm", "board_to_grid", "prompt_contains", "move_s", "settle_s", "distance_mm", "max_tilt_deg",
+           "square_mm", "grid_to_board", "prompt_contains", "move_s", "settle_s", "distance_mm", "max_tilt_deg",
            "max_roll_deg", "head_sway_mm", "blur_sigma_px", "noise_sigma"});
   HeadsetCameraSpec c;
   c.enabled = n.boolean("enabled", true);
-  c.marker_T_camera = n.pose("marker_to_camera", c.marker_T_camera);
+  c.marker_T_camera = n.pose("camera_to_marker", c.marker_T_camera);
   c.width = static_cast<int>(n.integer("width", c.width, 64, 4096));
   c.height = static_cast<int>(n.integer("height", c.height, 64, 4096));
   c.fx = n.number("fx", c.fx, 50.0, 20000.0);
@@ -297,7 +297,7 @@ HeadsetCameraSpec readHeadsetCamera(const Node& n) {
   c.rows = static_cast<int>(n.integer("rows", c.rows, 2, 30));
   c.cols = static_cast<int>(n.integer("cols", c.cols, 2, 30));
   c.square_mm = n.number("square_mm", c.square_mm, 2.0, 500.0);
-  c.board_T_grid = n.pose("board_to_grid", c.board_T_grid);
+  c.board_T_grid = n.pose("grid_to_board", c.board_T_grid);
   c.prompt_contains = n.text("prompt_contains", c.prompt_contains);
   if (c.prompt_contains.empty()) n.failKey("prompt_contains", "must not be empty");
   c.move_s = n.number("move_s", c.move_s, 0.1, 60.0);

@@ -242,7 +242,7 @@ void HologramStreamer::onClientMessage(igtlink::ClientId client, const igtlink::
           std::lock_guard lock(mutex_);
           ++stats_.camera_images;
         }
-        logger()->info("hologram stream: camera image {} x {} from client {}", image->width, image->height, client);
+        logger()->debug("hologram stream: camera image {} x {} from client {}", image->width, image->height, client);
         options_.on_camera_image(client, std::move(*image));
         return;
       }

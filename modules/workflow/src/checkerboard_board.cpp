@@ -54,12 +54,17 @@ std::optional<std::filesystem::path> digitisedCorners(const Session& session, co
   const auto entry = session.step("checkerboard-digitisation");
   if (entry.is_null() || entry.value("status", "") != "ok" || !entry.contains("figures")) return std::nullopt;
   const auto& f = entry["figures"];
-  if (f.value("board_tool", "") != board_tool || !f.contains("board") || !f.contains("corners_file")) {
+  // A session file edited by hand: anything not as this step wrote it is not a digitisation to use.
+  if (!f.is_object() || !f.contains("board_tool") || !f["board_tool"].is_string() ||
+      f["board_tool"].get<std::string>() != board_tool || !f.contains("board") || !f["board"].is_object() ||
+      !f.contains("corners_file") || !f["corners_file"].is_string()) {
     return std::nullopt;
   }
   const auto& b = f["board"];
-  if (b.value("rows", 0) != spec.rows || b.value("cols", 0) != spec.cols ||
-      std::abs(b.value("square_mm", 0.0) - spec.square_mm) > 1e-9) {
+  const auto number = [&](const char* key) {
+    return b.contains(key) && b[key].is_number() ? b[key].get<double>() : -1.0;
+  };
+  if (number("rows") != spec.rows || number("cols") != spec.cols || std::abs(number("square_mm") - spec.square_mm) > 1e-9) {
     return std::nullopt;
   }
   const auto path = session.resolve(f["corners_file"].get<std::string>());

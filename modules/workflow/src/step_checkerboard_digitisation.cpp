@@ -83,10 +83,13 @@ std::vector<CornerTouch> touchesFromJson(const Json& j, const std::string& file,
         !t["start_s"].is_number() || !t.contains("end_s") || !t["end_s"].is_number()) {
       throw FormatError("'" + file + "': every touch needs corner (an integer), start_s and end_s");
     }
-    CornerTouch c{t["corner"].get<int>(), t["start_s"].get<double>(), t["end_s"].get<double>()};
-    if (c.corner < 0 || c.corner >= corners || !(c.end_s >= c.start_s)) {
-      throw FormatError("'" + file + "': touch of corner " + std::to_string(c.corner) + " out of range");
+    const auto corner = t["corner"].get<long long>();
+    if (corner < 0 || corner >= corners) {
+      throw FormatError("'" + file + "': touch of corner " + std::to_string(corner) + " out of range (0-" +
+                        std::to_string(corners - 1) + ")");
     }
+    CornerTouch c{static_cast<int>(corner), t["start_s"].get<double>(), t["end_s"].get<double>()};
+    if (!(c.end_s >= c.start_s)) throw FormatError("'" + file + "': a touch ends before it starts");
     out.push_back(c);
   }
   return out;
@@ -127,9 +130,11 @@ class CornerTouchAcquisition {
     } catch (const FrameError&) {
       holds.clear();  // neither stylus nor board seen since the question
     }
-    // A tip still resting where the last touch was is that touch going on, not the next one.
+    // A tip still resting where the last touch was when the question came is that touch going on, not the next
+    // one; a hold there that starts later (the tip lifted and put back: a corner asked again) is a new touch.
     for (const auto& hold : holds) {
-      if (last_point_ && (hold.tip_patient - *last_point_).norm() < s_.holds.rearm_mm) continue;
+      const bool going_on = since.empty() || hold.start_s - since.front().timestamp < 0.1;
+      if (last_point_ && going_on && (hold.tip_patient - *last_point_).norm() < s_.holds.rearm_mm) continue;
       judge(hold, frames);
       break;
     }
@@ -230,6 +235,7 @@ class CornerTouchAcquisition {
       touch_of_corner_[static_cast<std::size_t>(c)].reset();
       queue_.push_back(c);
     }
+    on_touches_changed();
     ask(now, "off the grid the other corners make");
   }
 
@@ -269,7 +275,9 @@ StepResult runCheckerboardDigitisation(Session& session, const Json& params, con
   const BoardDefinition board = boardOfStep(p);
   const std::string tool = p.text("tool", "Stylus");
   const std::string board_tool = p.text("board_tool", "Board");
-  const Eigen::Vector3d tip = calibratedTip(session, tool, kDigitisationStep);
+  // source=file takes the tip the touches were acquired with (from their file).
+  Eigen::Vector3d tip = p.text("source", "plus") == "file" ? Eigen::Vector3d::Zero()
+                                                            : calibratedTip(session, tool, kDigitisationStep);
   RegistrationAcquisitionOptions holds;
   holds.transform = tool + "To" + board_tool;
   holds.tip_marker = tip;
@@ -278,11 +286,13 @@ StepResult runCheckerboardDigitisation(Session& session, const Json& params, con
   const double tolerance_mm = p.number("tolerance_mm", 10.0);
   const double inlier_threshold_mm = p.number("inlier_threshold_mm", 1.5);
   if (!(holds.dwell_s >= 0.2 && holds.dwell_s <= 10.0) || !(holds.dwell_radius_mm > 0.0) ||
-      !(tolerance_mm > 0.0) || !(inlier_threshold_mm > 0.0) || tolerance_mm >= board.spec.square_mm) {
+      !(tolerance_mm > 0.0) || !(inlier_threshold_mm > 0.0) || tolerance_mm >= 0.5 * board.spec.square_mm) {
     throw InvalidArgumentError(std::string(kDigitisationStep) +
                                ": dwell_s must be 0.2-10 s, dwell_radius_mm and inlier_threshold_mm > 0, and "
-                               "tolerance_mm > 0 and below the square size (else a neighbour corner passes)");
+                               "tolerance_mm > 0 and below half the square size (else a neighbour corner passes)");
   }
+  // The tip must leave a corner by less than the way to the next one before the next touch counts.
+  holds.rearm_mm = std::min(holds.rearm_mm, 0.4 * board.spec.square_mm);
   const int corner_count = board.spec.rows * board.spec.cols;
 
   StepResult result;
@@ -357,6 +367,7 @@ StepResult runCheckerboardDigitisation(Session& session, const Json& params, con
     if (!endpoint.empty()) acquisition["hologram_stream"] = endpoint;
     if (!state.done()) {
       result.ok = false;
+      result.figures["recorded"]["complete"] = false;
       result.figures["acquisition"] = acquisition;
       result.summary = (state.failure().empty() ? "the time ran out after " + std::to_string(touches.size()) +
                                                       " of " + std::to_string(corner_count) + " corners"
@@ -385,6 +396,20 @@ StepResult runCheckerboardDigitisation(Session& session, const Json& params, con
       throw FormatError(touches_file + " is not valid JSON (" + e.what() + ")");
     }
     touches = touchesFromJson(j, touches_file, corner_count);
+    // As it was acquired: the tip and the transform the file names, on a board of the same pattern.
+    const Json b = j.value("board", Json::object());
+    if (b.value("rows", 0) != board.spec.rows || b.value("cols", 0) != board.spec.cols ||
+        std::abs(b.value("square_mm", 0.0) - board.spec.square_mm) > 1e-9) {
+      throw InvalidArgumentError(std::string(kDigitisationStep) + ": '" + touches_file + "' was acquired on a board " +
+                                 b.dump() + ", not this step's " + board.file + " (give its board=)");
+    }
+    if (j.contains("transform") && j["transform"].is_string()) holds.transform = j["transform"].get<std::string>();
+    if (j.contains("tip_marker_mm") && j["tip_marker_mm"].is_array() && j["tip_marker_mm"].size() == 3) {
+      for (int k = 0; k < 3; ++k) {
+        if (!j["tip_marker_mm"][k].is_number()) throw FormatError(touches_file + ": tip_marker_mm must be numbers");
+        tip[k] = j["tip_marker_mm"][k].get<double>();
+      }
+    }
   } else {
     throw InvalidArgumentError(std::string(kDigitisationStep) + ": source must be plus (live) or file, not '" +
                                source + "'");
@@ -412,6 +437,14 @@ StepResult runCheckerboardDigitisation(Session& session, const Json& params, con
   hmd::GridFitOptions fit;
   fit.inlier_threshold_mm = inlier_threshold_mm;
   const auto grid = hmd::fitCheckerboardGrid(points, board.spec, fit);
+  if (grid.inlier_count < corner_count) {
+    std::string off;
+    for (int c = 0; c < corner_count; ++c) {
+      if (!grid.inliers[static_cast<std::size_t>(c)]) off += (off.empty() ? "" : ", ") + std::to_string(c + 1);
+    }
+    throw ComputationError(std::string(kDigitisationStep) + ": corner(s) " + off + " lie more than " +
+                           formatFixed(inlier_threshold_mm, 1) + " mm off the grid the others make: touch them again");
+  }
   for (int c = 0; c < corner_count; ++c) per_corner[static_cast<std::size_t>(c)]["residual_mm"] = grid.residuals_mm[c];
   const std::string corners_file = freeSessionName(session, kDigitisationStep, "corners", ".csv");
   hmd::writeBoardCorners(session.resolve(corners_file), points);
@@ -449,7 +482,11 @@ StepResult runCheckerboardDigitisation(Session& session, const Json& params, con
   result.figures["offline_command"] = "mrsns-cli session run " + session.folder().string() + " " +
                                       kDigitisationStep + " --param source=file --param recording=" +
                                       recordingPath(session, recording).string() +
-                                      " --param touches=" + recordingPath(session, touches_file).string();
+                                      " --param touches=" + recordingPath(session, touches_file).string() +
+                                      (p.has("board") ? " --param board=" + board.file : "") +
+                                      (p.has("inlier_threshold_mm")
+                                           ? " --param inlier_threshold_mm=" + formatFixed(inlier_threshold_mm, 6)
+                                           : "");
   std::ostringstream summary;
   summary << corner_count << " corners digitised: they fit the board's grid within " << formatFixed(grid.rms_mm, 2)
           << " mm RMS (rows and columns at " << formatFixed(grid.row_column_angle_deg, 1) << " deg, spacing "

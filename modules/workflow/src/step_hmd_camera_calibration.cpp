@@ -90,6 +90,7 @@ class CameraViewAcquisition {
     double max_still_mm = 1.0, max_still_deg = 0.5;
     double hmd_wait_s = 120.0;
     double photo_wait_s = 30.0;
+    std::optional<hmd::CameraIntrinsics> given_intrinsics;
     fs::path dataset;
     std::string endpoint;
   };
@@ -125,16 +126,27 @@ class CameraViewAcquisition {
                     " again)";
           return false;
         }
-        // A photo is the operator's: the latest one answers the view asked for (earlier ones are stale).
-        if (!photos.empty() && !frames.empty()) {
-          judge(photos.back(), frames);
+        // A photo is the operator's: the latest one answers the view asked for (earlier ones are stale). It is
+        // judged once tracking newer than its arrival is in: the poses of the moment it was taken are then all
+        // there, and a tracker that stalled does not pass off older ones as its.
+        if (!photos.empty()) {
+          pending_ = std::move(photos.back());
+          pending_seen_at_ = frames.size();
+          timeouts_ = 0;
+        }
+        if (pending_ && frames.size() > pending_seen_at_) {
+          const double arrived = frames[pending_seen_at_].timestamp;
+          const auto photo = std::move(*pending_);
+          pending_.reset();
+          judge(photo, frames, arrived);
+          if (!failure_.empty()) return true;
           if (accepted_.size() == static_cast<std::size_t>(s_.views)) {
             streamer_.setPrompt("HMD camera calibration: all " + std::to_string(s_.views) + " photos taken");
             phase_ = Phase::Done;
             message = status();
             return true;
           }
-        } else if (elapsed() > s_.photo_wait_s) {
+        } else if (!pending_ && elapsed() > s_.photo_wait_s) {
           if (++timeouts_ >= 3) {
             failure_ = "no photo came from the headset for view " + viewLabel() + " in " +
                        formatFixed(3 * s_.photo_wait_s, 0) +
@@ -161,8 +173,9 @@ class CameraViewAcquisition {
   [[nodiscard]] const std::vector<std::string>& rejected() const { return rejected_; }
   [[nodiscard]] const std::string& failure() const { return failure_; }
   [[nodiscard]] int drops() const { return drops_; }
-  [[nodiscard]] const std::string& intrinsics() const { return intrinsics_; }
+  [[nodiscard]] const std::optional<hmd::CameraIntrinsics>& intrinsics() const { return intrinsics_; }
   [[nodiscard]] bool intrinsicsChanged() const { return intrinsics_changed_; }
+  [[nodiscard]] const std::string& intrinsicsWarning() const { return intrinsics_warning_; }
 
  private:
   enum class Phase { WaitHeadset, Asking, Done };
@@ -193,9 +206,8 @@ class CameraViewAcquisition {
     ask(why);
   }
 
-  void judge(const tracking::HeadsetCameraImage& photo, const std::vector<TrackedFrame>& frames) {
+  void judge(const tracking::HeadsetCameraImage& photo, const std::vector<TrackedFrame>& frames, double arrived) {
     // The photo was taken before it arrived: the tracked poses of the moment before are its.
-    const double arrived = frames.back().timestamp;
     const StillPose hmd = stillPoseBefore(frames, arrived - s_.still_s, arrived, s_.hmd_transform);
     const StillPose board = stillPoseBefore(frames, arrived - s_.still_s, arrived, s_.board_transform);
     auto tracked = [](const StillPose& p) { return p.samples >= 3 && p.missing <= p.samples; };
@@ -230,11 +242,30 @@ class CameraViewAcquisition {
              ": keep the camera in one mode");
       return;
     }
+    if (s_.given_intrinsics && (s_.given_intrinsics->width != photo.width ||
+                                s_.given_intrinsics->height != photo.height)) {
+      failure_ = "the intrinsics given are for " + std::to_string(s_.given_intrinsics->width) + " x " +
+                 std::to_string(s_.given_intrinsics->height) + " pixels, the headset's photos are " +
+                 std::to_string(photo.width) + " x " + std::to_string(photo.height);
+      return;
+    }
     width_ = photo.width;
     height_ = photo.height;
-    if (!photo.intrinsics.empty()) {
-      if (!intrinsics_.empty() && photo.intrinsics != intrinsics_) intrinsics_changed_ = true;
-      if (intrinsics_.empty()) intrinsics_ = photo.intrinsics;
+    // What the headset says of its camera, checked and kept at once (a failed acquisition keeps it too).
+    if (!photo.intrinsics.empty() && photo.intrinsics != intrinsics_text_) {
+      try {
+        const auto k = hmd::intrinsicsFromText(photo.intrinsics);
+        if (k.width != photo.width || k.height != photo.height) {
+          throw FormatError("they are for " + std::to_string(k.width) + " x " + std::to_string(k.height) +
+                            " pixels, the photo " + std::to_string(photo.width) + " x " + std::to_string(photo.height));
+        }
+        if (!intrinsics_text_.empty()) intrinsics_changed_ = true;
+        intrinsics_text_ = photo.intrinsics;
+        intrinsics_ = k;
+        if (!s_.given_intrinsics) hmd::writeCameraIntrinsics(s_.dataset / "intrinsics.json", k);
+      } catch (const FormatError& e) {
+        intrinsics_warning_ = std::string("the headset's intrinsics were not usable: ") + e.what();
+      }
     }
     Accepted a;
     a.image = photoFileName(accepted_.size());
@@ -274,8 +305,11 @@ class CameraViewAcquisition {
   std::string failure_;
   int drops_ = 0, timeouts_ = 0;
   int width_ = 0, height_ = 0;
-  std::string intrinsics_;
+  std::optional<hmd::CameraIntrinsics> intrinsics_;
+  std::string intrinsics_text_, intrinsics_warning_;
   bool intrinsics_changed_ = false;
+  std::optional<tracking::HeadsetCameraImage> pending_;
+  std::size_t pending_seen_at_ = 0;
 };
 
 Json cameraPoseJson(const Eigen::Isometry3d& T) {
@@ -289,7 +323,7 @@ StepResult runHmdCameraCalibration(Session& session, const Json& params, const S
   const Params p(kCameraStep, params,
                  {"source", "host", "port", "duration_s", "connect_timeout_s", "hmd_address", "hmd_port", "unity",
                   "hmd_wait_s", "photo_wait_s", "views", "hmd_tool", "board_tool", "board", "corners", "intrinsics",
-                  "still_s", "max_still_mm", "max_still_deg", "dataset", "recording"});
+                  "still_s", "max_still_mm", "max_still_deg", "dataset"});
   checkCancel(context);
   const std::string source = p.text("source", "hmd");
   const BoardDefinition board = boardOfStep(p);
@@ -304,6 +338,11 @@ StepResult runHmdCameraCalibration(Session& session, const Json& params, const S
   } else if (const auto digitised = digitisedCorners(session, board_tool, board.spec)) {
     corners = hmd::readBoardCorners(*digitised);
     corners_from = "checkerboard-digitisation";
+  }
+  if (!corners.empty() && corners.size() != static_cast<std::size_t>(board.spec.rows * board.spec.cols)) {
+    throw InvalidArgumentError(std::string(kCameraStep) + ": " + corners_from + " holds " +
+                               std::to_string(corners.size()) + " corners, the board " +
+                               std::to_string(board.spec.rows * board.spec.cols) + " (" + board.file + ")");
   }
   std::optional<hmd::CameraIntrinsics> given_intrinsics;
   if (p.has("intrinsics")) given_intrinsics = hmd::readCameraIntrinsics(recordingPath(session, p.text("intrinsics", "")));
@@ -325,6 +364,7 @@ StepResult runHmdCameraCalibration(Session& session, const Json& params, const S
     s.max_still_deg = p.number("max_still_deg", s.max_still_deg);
     s.hmd_wait_s = p.number("hmd_wait_s", s.hmd_wait_s);
     s.photo_wait_s = p.number("photo_wait_s", s.photo_wait_s);
+    s.given_intrinsics = given_intrinsics;
     if (s.views < 3 || s.views > 50 || !(s.still_s >= 0.1 && s.still_s <= 5.0) || !(s.max_still_mm > 0.0) ||
         !(s.max_still_deg > 0.0) || !(s.hmd_wait_s > 0.0 && s.hmd_wait_s <= 1800.0) ||
         !(s.photo_wait_s >= 1.0 && s.photo_wait_s <= 600.0)) {
@@ -402,6 +442,7 @@ StepResult runHmdCameraCalibration(Session& session, const Json& params, const S
                    {"views", views}};
     if (!state.failure().empty() || state.accepted().size() < static_cast<std::size_t>(s.views)) {
       result.ok = false;
+      result.figures["recorded"]["complete"] = false;
       result.figures["acquisition"] = acquisition;
       result.summary = (state.failure().empty() ? "the time ran out after " + std::to_string(state.accepted().size()) +
                                                       " of " + std::to_string(s.views) + " photos"
@@ -414,19 +455,17 @@ StepResult runHmdCameraCalibration(Session& session, const Json& params, const S
     if (given_intrinsics) {
       hmd::writeCameraIntrinsics(dataset / "intrinsics.json", *given_intrinsics);
       acquisition["intrinsics_from"] = "file " + p.text("intrinsics", "");
-    } else if (!state.intrinsics().empty()) {
-      try {
-        hmd::writeCameraIntrinsics(dataset / "intrinsics.json", hmd::intrinsicsFromText(state.intrinsics()));
-        acquisition["intrinsics_from"] = "the headset (metadata CameraIntrinsics of its photos)";
-        if (state.intrinsicsChanged()) acquisition["intrinsics_warning"] = "the headset's intrinsics changed";
-      } catch (const FormatError& e) {
-        acquisition["intrinsics_warning"] = std::string("the headset's intrinsics were not usable: ") + e.what();
+    } else if (state.intrinsics()) {
+      acquisition["intrinsics_from"] = "the headset (metadata CameraIntrinsics of its photos)";
+      if (state.intrinsicsChanged()) {
+        acquisition["intrinsics_warning"] = "the headset's intrinsics changed during the acquisition: the last used";
       }
     }
+    if (!state.intrinsicsWarning().empty()) acquisition["intrinsics_warning"] = state.intrinsicsWarning();
   } else if (source == "file") {
     for (const char* key : {"host", "port", "duration_s", "connect_timeout_s", "hmd_address", "hmd_port", "unity",
                             "hmd_wait_s", "photo_wait_s", "views", "hmd_tool", "still_s",
-                            "max_still_mm", "max_still_deg", "recording"}) {
+                            "max_still_mm", "max_still_deg"}) {
       if (p.has(key)) throw InvalidArgumentError(std::string(kCameraStep) + ": " + key + " is for source=hmd");
     }
     if (!p.has("dataset")) {

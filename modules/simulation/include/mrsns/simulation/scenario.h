@@ -312,8 +312,8 @@ struct CubeOperatorSpec {
 /// by hmd::renderCheckerboard through the camera's distortion, with blur and sensor noise) and, in header v2,
 /// its intrinsics as the device reports them (the factory calibration: the true ones off by a seeded
 /// `intrinsics_focal_error_percent` and `intrinsics_principal_error_px`). The truth the calibration estimates
-/// is `marker_to_camera` (the camera in the headset marker's frame); the printed pattern sits at
-/// `board_to_grid` on the board's marker (the board definition the workstation is given states it).
+/// is `camera_to_marker` (the camera in the headset marker's frame); the printed pattern sits at
+/// `grid_to_board` on the board's marker (what the board's CAD states, up to the print's placement).
 struct HeadsetCameraSpec {
   bool enabled = false;
   Eigen::Isometry3d marker_T_camera = Eigen::Isometry3d::Identity();
@@ -339,7 +339,7 @@ struct HeadsetCameraSpec {
 /// The operator digitising the tracked checkerboard's corners with the stylus (paper 000 §2.3), reading the
 /// workstation's prompts on the headset: on one containing `prompt_contains` and "corner K of N" the stylus
 /// (`tool`, keeping the orientation it rests in) goes in `travel_s` to `approach_mm` above corner K (the board of
-/// `camera`: its marker, pattern and `board_to_grid`), down in `down_s`, and holds the tip on it for `dwell_s`
+/// `camera`: its marker, pattern and `grid_to_board`), down in `down_s`, and holds the tip on it for `dwell_s`
 /// (placed `placement_error_mm` 3D RMS off the corner, with a tremor of `tremor_mm` per axis at 8-12 Hz), then
 /// lifts back; any other prompt sends it back to where it rests. Needs `camera` and a tool with `tip_mm`.
 struct BoardTouchSpec {
