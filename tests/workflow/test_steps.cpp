@@ -41,8 +41,8 @@ TEST(Steps, ListIsThePaperWorkflowInOrder) {
   const std::vector<std::string> expected = {
       "connect-devices", "pivot-calibration", "spin-calibration", "drill-calibration", "drill-spin-calibration",
       "us-phantom-registration", "us-spatial-calibration",
-      "us-temporal-calibration", "robot-calibration", "registration", "hmd-calibration", "navigation",
-      "robot-placement"};
+      "us-temporal-calibration", "robot-calibration", "registration", "hmd-calibration", "checkerboard-digitisation",
+      "hmd-camera-calibration", "navigation", "robot-placement"};
   ASSERT_EQ(steps.size(), expected.size());
   for (std::size_t i = 0; i < steps.size(); ++i) {
     EXPECT_EQ(steps[i].name, expected[i]);
