@@ -323,12 +323,16 @@ struct OperatingRoom::Impl {
   // the headset's world frame placed by its truth).
   std::vector<World::HeldTool> heldTools(double t, const std::optional<Eigen::Isometry3d>& base_T_flange) {
     std::vector<World::HeldTool> held;
+    if (!board_toucher && !camera_operator && !cube_operator) return held;
+    // Where the scenario puts every tool now (nobody holding it), evaluated once per tick.
+    const auto resting = world->tools(t, base_T_flange);
+    const auto rest = [&](const std::string& name) { return restingPoseIn(resting, name); };
     if (board_toucher) {
       const auto& name = scenario.hmd.board_touch.tool;
-      if (auto stylus = board_toucher->pose(t, restingPose(t, base_T_flange, name))) held.push_back({name, *stylus});
+      if (auto stylus = board_toucher->pose(t, rest(name))) held.push_back({name, *stylus});
     }
     if (camera_operator) {
-      if (auto headset = camera_operator->pose(t, restingPose(t, base_T_flange, scenario.hmd.marker_tool))) {
+      if (auto headset = camera_operator->pose(t, rest(scenario.hmd.marker_tool))) {
         held.push_back({scenario.hmd.marker_tool, *headset});
       }
     }
@@ -339,21 +343,23 @@ struct OperatingRoom::Impl {
         shown = *tracker_T_hmd_world * m.world_T_model;
       }
     }
-    Eigen::Isometry3d rest = Eigen::Isometry3d::Identity();
-    for (const auto& tool : world->tools(t, base_T_flange)) {
-      if (tool.name == scenario.hmd.cube.tool) rest = tool.tracker_T_tool;
+    if (const auto cube = cube_operator->pose(t, rest(scenario.hmd.cube.tool), shown)) {
+      held.push_back({scenario.hmd.cube.tool, *cube});
     }
-    if (const auto cube = cube_operator->pose(t, rest, shown)) held.push_back({scenario.hmd.cube.tool, *cube});
     return held;
+  }
+
+  static Eigen::Isometry3d restingPoseIn(const std::vector<ToolTruth>& tools, const std::string& name) {
+    for (const auto& tool : tools) {
+      if (tool.name == name) return tool.tracker_T_tool;
+    }
+    return Eigen::Isometry3d::Identity();
   }
 
   // Where the scenario puts a tool at t (its motion, nobody holding it).
   Eigen::Isometry3d restingPose(double t, const std::optional<Eigen::Isometry3d>& base_T_flange,
                                 const std::string& name) const {
-    for (const auto& tool : world->tools(t, base_T_flange)) {
-      if (tool.name == name) return tool.tracker_T_tool;
-    }
-    return Eigen::Isometry3d::Identity();
+    return restingPoseIn(world->tools(t, base_T_flange), name);
   }
 
   std::optional<Eigen::Isometry3d> flangeNow() const {
@@ -363,10 +369,10 @@ struct OperatingRoom::Impl {
 
   // The photo the wearer's headset takes, rendered and sent off this thread (a previous one finished first).
   void takePhoto(double t) {
-    const auto flange = flangeNow();
-    const Eigen::Isometry3d rest = restingPose(t, flange, scenario.hmd.marker_tool);
+    const auto resting = world->tools(t, flangeNow());
+    const Eigen::Isometry3d rest = restingPoseIn(resting, scenario.hmd.marker_tool);
     const auto headset = camera_operator->pose(t, rest);
-    const Eigen::Isometry3d board = restingPose(t, flange, scenario.hmd.camera.board_tool);
+    const Eigen::Isometry3d board = restingPoseIn(resting, scenario.hmd.camera.board_tool);
     const auto photo = camera_operator->photoDue(t, headset.value_or(rest), board);
     {
       std::lock_guard lock(truth_mutex);

@@ -22,11 +22,11 @@
 #include "mrsns/core/rigid.h"
 #include "mrsns/core/wall_clock.h"
 #include "mrsns/hmd/checkerboard_dataset.h"
-#include "mrsns/igtlink/server.h"
 #include "mrsns/io/sequence_file.h"
 #include "mrsns/io/transform_io.h"
 #include "mrsns/tracking/hologram_streamer.h"
 #include "registration_acquisition.h"
+#include "step_hologram_stream.h"
 #include "step_internal.h"
 
 namespace mrsns::workflow::detail {
@@ -305,44 +305,20 @@ StepResult runCheckerboardDigitisation(Session& session, const Json& params, con
     LiveTrackingOptions live = touchRecordingOptions(session, p, kDigitisationStep, "BoardTouches", 300.0, recording);
     touches_file = freeSessionName(session, kDigitisationStep, "touches", ".json");
     // The prompts also go to the headset when one is served (the operator may wear it while touching).
-    std::optional<igtlink::Server> server;
-    std::optional<tracking::HologramStreamer> streamer;
+    std::optional<StepHologramStream> stream;
     std::string endpoint;
     if (p.has("hmd_port")) {
-      const int hmd_port = p.integer("hmd_port", 18945);
-      if (hmd_port < 1 || hmd_port > 65535) {
-        throw InvalidArgumentError(std::string(kDigitisationStep) + ": hmd_port must be 1-65535");
-      }
-      igtlink::ServerOptions o;
-      o.bind_address = p.text("hmd_address", "127.0.0.1");
-      o.port = static_cast<std::uint16_t>(hmd_port);
-      o.max_clients = 4;
-      o.decode.max_body_size = 64 * 1024;
-      endpoint = o.bind_address + ":" + std::to_string(hmd_port);
-      server.emplace(o);
-      tracking::HologramStreamOptions stream_options;
-      stream_options.unity = p.boolean("unity", false);
-      streamer.emplace(*server, std::make_shared<TransformRepository>(), std::vector<tracking::HologramModel>{},
-                       stream_options);
-      try {
-        server->start();
-      } catch (const Error& e) {
-        throw NetworkError(std::string(kDigitisationStep) + ": cannot serve the hologram stream on " + endpoint +
-                           " (" + e.what() + "): stop the other stream or choose hmd_port");
-      }
+      const StepStreamAddress address = stepStreamAddress(kDigitisationStep, p, 64 * 1024);
+      endpoint = address.endpoint;
+      stream.emplace(kDigitisationStep, address, std::make_shared<TransformRepository>(),
+                     std::vector<tracking::HologramModel>{}, tracking::HologramStreamOptions{});
     }
-    struct StopServer {
-      std::optional<igtlink::Server>& server;
-      ~StopServer() {
-        if (server) server->stop();
-      }
-    } stop_server{server};
     CornerTouchAcquisition::Settings s;
     s.board = board;
     s.holds = holds;
     s.tolerance_mm = tolerance_mm;
     s.inlier_threshold_mm = inlier_threshold_mm;
-    CornerTouchAcquisition state(s, streamer ? &*streamer : nullptr);
+    CornerTouchAcquisition state(s, stream ? &stream->streamer() : nullptr);
     // The touches are on disk as soon as they are taken: a cancelled or failed acquisition keeps them.
     const fs::path touches_path = session.resolve(touches_file);
     state.on_touches_changed = [&] {
@@ -356,7 +332,7 @@ StepResult runCheckerboardDigitisation(Session& session, const Json& params, con
       return state.step(so_far, message);
     };
     const LiveTrackingRecording r = recordLiveTracking(live, monitor, context);
-    if (server) server->stop();
+    if (stream) stream->stop();
     frames = r.frames;
     touches = state.latestTouches();
     result.figures["recorded"] = recordedFigures(r, recording, live);

@@ -16,7 +16,7 @@
 
 #include "hmd_cube_calibration.h"
 #include "landmark_touch_step.h"
-#include "headset_wait.h"
+#include "step_hologram_stream.h"
 #include "live_tracking_recording.h"
 #include "mrsns/core/format.h"
 #include "mrsns/core/rigid.h"
@@ -472,15 +472,9 @@ StepResult runAcquiredHmdCalibration(Session& session, const Json& params, const
     // Where the headset shows the cube, in its own world frame: half a metre ahead of where its app started
     // (a HoloLens app's world origin), unless the lab places it elsewhere.
     s.hologram_T_marker.translation() = vectorParam(p, "hologram_position_mm", Eigen::Vector3d(0.0, 0.0, 500.0));
-    const int hmd_port = p.integer("hmd_port", 18945);
-    if (hmd_port < 1 || hmd_port > 65535) throw InvalidArgumentError(std::string(kStep) + ": hmd_port must be 1-65535");
-    igtlink::ServerOptions server_options;
-    server_options.bind_address = p.text("hmd_address", "127.0.0.1");
-    server_options.port = static_cast<std::uint16_t>(hmd_port);
-    server_options.max_clients = 4;
     // A headset sends confirmations and status, nothing large.
-    server_options.decode.max_body_size = 64 * 1024;
-    s.endpoint = server_options.bind_address + ":" + std::to_string(hmd_port);
+    const StepStreamAddress address = stepStreamAddress(kStep, p, 64 * 1024);
+    s.endpoint = address.endpoint;
     auto repository = std::make_shared<TransformRepository>();
     repository->setTransform(kCubeModel, "Hologram", s.hologram_T_marker, TransformStatus::Ok);
     std::vector<tracking::HologramModel> models;
@@ -496,26 +490,12 @@ StepResult runAcquiredHmdCalibration(Session& session, const Json& params, const
     holds_file = freeSessionName(session, kStep, "holds", ".json");
     std::atomic<std::uint64_t> hmd_confirmations{0};
     tracking::HologramStreamOptions stream_options;
-    stream_options.unity = p.boolean("unity", false);
     // The headset's confirmation reaches this step and nothing else.
     stream_options.on_confirmation = [&hmd_confirmations](igtlink::ClientId, const std::string& text) {
       if (!text.empty()) hmd_confirmations.fetch_add(1);
     };
-    igtlink::Server server(server_options);
-    tracking::HologramStreamer streamer(server, repository, models, stream_options);
-    // The server's handlers point at the streamer: stopped before it goes, whatever leaves this scope.
-    struct StopServer {
-      igtlink::Server& server;
-      ~StopServer() { server.stop(); }
-    } stop_server{server};
-    try {
-      server.start();
-    } catch (const Error& e) {
-      throw NetworkError(std::string(kStep) + ": cannot serve the hologram stream on " + s.endpoint + " (" +
-                         e.what() + "): another hologram stream (the GUI's, mrsns-cli serve) may hold that port; "
-                         "stop it or choose hmd_port");
-    }
-    CubeHoldAcquisition acquisition_state(s, cube, options, streamer, *repository, patient, hmd_confirmations,
+    StepHologramStream stream(kStep, address, repository, models, stream_options);
+    CubeHoldAcquisition acquisition_state(s, cube, options, stream.streamer(), *repository, patient, hmd_confirmations,
                                           context.confirmations);
     // The accepted holds are on disk as soon as they are accepted: a cancelled or failed acquisition keeps them
     // beside its recording.
@@ -530,7 +510,7 @@ StepResult runAcquiredHmdCalibration(Session& session, const Json& params, const
       return acquisition_state.step(so_far, message);
     };
     const LiveTrackingRecording r = recordLiveTracking(live, monitor, context);
-    server.stop();
+    stream.stop();
     recorded = recordedFigures(r, recording, live);
     frames = r.frames;
     holds = acquisition_state.holds();

@@ -17,7 +17,7 @@
 
 #include "checkerboard_board.h"
 #include "landmark_touch_step.h"
-#include "headset_wait.h"
+#include "step_hologram_stream.h"
 #include "live_tracking_recording.h"
 #include "mrsns/core/format.h"
 #include "mrsns/core/rigid.h"
@@ -372,16 +372,10 @@ StepResult runHmdCameraCalibration(Session& session, const Json& params, const S
                                  ": views must be 3-50 (paper 000 used 10), still_s 0.1-5 s, max_still_mm and "
                                  "max_still_deg > 0, hmd_wait_s in (0, 1800] s, photo_wait_s 1-600 s");
     }
-    const int hmd_port = p.integer("hmd_port", 18945);
-    if (hmd_port < 1 || hmd_port > 65535) throw InvalidArgumentError(std::string(kCameraStep) + ": hmd_port must be 1-65535");
-    igtlink::ServerOptions server_options;
-    server_options.bind_address = p.text("hmd_address", "127.0.0.1");
-    server_options.port = static_cast<std::uint16_t>(hmd_port);
-    server_options.max_clients = 4;
     // The largest photo the stream takes (4096 x 4096 grey) and its header; nothing else a headset sends is large.
-    server_options.decode.max_body_size =
-        static_cast<std::uint64_t>(tracking::kMaxCameraImageSide) * tracking::kMaxCameraImageSide + 64 * 1024;
-    s.endpoint = server_options.bind_address + ":" + std::to_string(hmd_port);
+    const StepStreamAddress address = stepStreamAddress(
+        kCameraStep, p, static_cast<std::uint64_t>(tracking::kMaxCameraImageSide) * tracking::kMaxCameraImageSide + 64 * 1024);
+    s.endpoint = address.endpoint;
     std::string recording;
     LiveTrackingOptions live = touchRecordingOptions(session, p, kCameraStep, "CameraViews", 600.0, recording);
     const std::string dataset_name = freeSessionName(session, kCameraStep, "dataset", "");
@@ -390,7 +384,6 @@ StepResult runHmdCameraCalibration(Session& session, const Json& params, const S
     s.dataset = dataset;
     PhotoInbox inbox;
     tracking::HologramStreamOptions stream_options;
-    stream_options.unity = p.boolean("unity", false);
     // The headset's photos reach this step and nothing else.
     stream_options.on_camera_image = [&inbox](igtlink::ClientId, tracking::HeadsetCameraImage image) {
       std::lock_guard lock(inbox.mutex);
@@ -399,28 +392,15 @@ StepResult runHmdCameraCalibration(Session& session, const Json& params, const S
       inbox.photos.push_back(std::move(image));
       inbox.received.fetch_add(1);
     };
-    auto repository = std::make_shared<TransformRepository>();
-    igtlink::Server server(server_options);
-    tracking::HologramStreamer streamer(server, repository, {}, stream_options);
-    struct StopServer {
-      igtlink::Server& server;
-      ~StopServer() { server.stop(); }
-    } stop_server{server};
-    try {
-      server.start();
-    } catch (const Error& e) {
-      throw NetworkError(std::string(kCameraStep) + ": cannot serve the hologram stream on " + s.endpoint + " (" +
-                         e.what() + "): another hologram stream (the GUI's, mrsns-cli serve) may hold that port; "
-                         "stop it or choose hmd_port");
-    }
-    CameraViewAcquisition state(s, streamer, inbox);
+    StepHologramStream stream(kCameraStep, address, std::make_shared<TransformRepository>(), {}, stream_options);
+    CameraViewAcquisition state(s, stream.streamer(), inbox);
     context.report(0.02, "asking the headset for photos on " + s.endpoint + "; tracking from " + live.host + ":" +
                              std::to_string(live.port));
     const auto monitor = [&](const std::vector<TrackedFrame>& so_far, std::string& message) {
       return state.step(so_far, message);
     };
     const LiveTrackingRecording r = recordLiveTracking(live, monitor, context);
-    server.stop();
+    stream.stop();
     result.figures["recorded"] = recordedFigures(r, recording, live);
     result.figures["simulated"] = fromSimulatedRoom(r.device_identity);
     result.outputs.push_back(recording);
