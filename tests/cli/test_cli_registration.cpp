@@ -1,14 +1,19 @@
 // calibrate-pivot, calibrate-spin and register-points through the real
-// binary: synthetic inputs written to files, and the real PLUS recording.
+// binary: synthetic inputs written to files, and the real PLUS recording;
+// the MovingToFixed files of register-points and register-surface.
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <random>
 
+#include "../registration/surface_fixtures.h"
 #include "cli_runner.h"
 #include "mrsns/core/rigid.h"
+#include "mrsns/io/mesh_io.h"
 #include "mrsns/io/pose_csv.h"
+#include "mrsns/io/transform_io.h"
 #include "test_data.h"
 
 namespace mrsns::test {
@@ -150,6 +155,111 @@ TEST(CliRegisterPoints, CollinearPointsExitOne) {
   const auto result = runCli({"register-points", (dir / "a.fcsv").string(), (dir / "a.fcsv").string()});
   EXPECT_EQ(result.exit_code, 1);
   EXPECT_NE(result.err.find("collinear"), std::string::npos) << result.err;
+}
+
+// ---- --output MovingToFixed: the same transform whatever the extension ----
+
+/// A verb's "fixed_T_moving" (16 numbers, row-major).
+Eigen::Matrix4d reportedMatrix(const nlohmann::json& a) {
+  EXPECT_EQ(a.size(), 16U);
+  Eigen::Matrix4d m;
+  for (int i = 0; i < 16; ++i) m(i / 4, i % 4) = a[static_cast<std::size_t>(i)].get<double>();
+  return m;
+}
+
+/// The 16 numbers of a plain text matrix, read by hand (no library).
+Eigen::Matrix4d plainTextMatrix(const std::filesystem::path& path) {
+  std::ifstream in(path);
+  std::vector<double> v;
+  double x = 0.0;
+  while (in >> x) v.push_back(x);
+  EXPECT_EQ(v.size(), 16U) << path << " is not a plain 4x4 matrix";
+  Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
+  for (std::size_t i = 0; i < std::min<std::size_t>(v.size(), 16); ++i) m(i / 4, i % 4) = v[i];
+  return m;
+}
+
+/// Every file holds fixed_T_moving by the convention: readChildToParent gives the reported matrix, a .txt
+/// holds it as written, an ITK file its inverse. Rigid, translations up to ~150 mm: the inversions and
+/// the 17-digit text cost a few ulps of 150 mm (~3e-14 each); 1e-11 leaves margin.
+void expectMovingToFixedFiles(const std::map<std::string, std::filesystem::path>& files,
+                              const Eigen::Matrix4d& reported) {
+  for (const auto& [ext, file] : files) {
+    SCOPED_TRACE(file.string());
+    EXPECT_LT((io::readChildToParent(file) - reported).cwiseAbs().maxCoeff(), 1e-11);
+    if (ext == ".txt") {
+      EXPECT_LT((plainTextMatrix(file) - reported).cwiseAbs().maxCoeff(), 1e-11);
+    } else {
+      EXPECT_LT((io::readTransformFile(file).matrix - reported.inverse()).cwiseAbs().maxCoeff(), 1e-11);
+    }
+  }
+}
+
+TEST(CliMovingToFixed, RegisterSurfaceTxtAndTfmHoldTheReportedTransform) {
+  const auto dir = scratchDirectory("moving-to-fixed");
+  const auto truth = makePose(Eigen::Vector3d(0.1, 0.15, -0.1), Eigen::Vector3d(5, -6, 4));
+  const TriangleMesh mesh = vertebraLikeMesh(41, 64);
+  io::writeMesh(mesh, dir / "bone.stl");
+  // Noise-free points on the surface, in the moving frame: p_moving = truth^-1 p_fixed.
+  const auto moving = transformPoints(truth.inverse(), sampleSurface(mesh, 600, 0.0, 5));
+  {
+    std::ofstream out(dir / "points.csv");
+    out.precision(17);
+    for (std::size_t i = 0; i < moving.size(); ++i) {
+      out << "P-" << i + 1 << ',' << moving[i].x() << ',' << moving[i].y() << ',' << moving[i].z() << '\n';
+    }
+  }
+  std::map<std::string, std::filesystem::path> files;
+  std::map<std::string, Eigen::Matrix4d> reported;
+  for (const std::string ext : {".txt", ".tfm", ".h5"}) {
+    files[ext] = dir / ("MovingToFixed" + ext);
+    const auto result = runCli({"register-surface", "--points", (dir / "points.csv").string(), "--mesh",
+                                (dir / "bone.stl").string(), "--output", files[ext].string(), "--json"});
+    ASSERT_EQ(result.exit_code, 0) << result.err;
+    reported[ext] = reportedMatrix(nlohmann::json::parse(result.out)["fixed_T_moving"]);
+  }
+  // The same inputs give the same registration (deterministic), whatever the output's extension.
+  EXPECT_LT((reported[".txt"] - reported[".tfm"]).cwiseAbs().maxCoeff(), 1e-12);
+  EXPECT_LT((reported[".txt"] - reported[".h5"]).cwiseAbs().maxCoeff(), 1e-12);
+  // And it is the truth (noise-free points: ICP's convergence tolerance, well below 0.01 mm).
+  const auto e = poseError(Eigen::Isometry3d(reported[".tfm"]), truth, centroid(moving));
+  EXPECT_LT(e.translation, 0.01);
+  EXPECT_LT(e.rotation, 0.01 * kDegree);
+  expectMovingToFixedFiles(files, reported[".tfm"]);
+  // The files agree with each other: the .txt is not the inverse of the .tfm's meaning (the old bug).
+  EXPECT_LT((io::readChildToParent(files[".txt"]) - io::readChildToParent(files[".tfm"])).cwiseAbs().maxCoeff(), 1e-11);
+  // A point of the moving data, mapped by the .txt's matrix, lands where the truth puts it.
+  const Eigen::Vector4d p = plainTextMatrix(files[".txt"]) * moving.front().homogeneous();
+  EXPECT_LT((p.head<3>() - truth * moving.front()).norm(), 0.01);
+}
+
+TEST(CliMovingToFixed, RegisterPointsTxtAndTfmHoldTheReportedTransform) {
+  const auto dir = scratchDirectory("moving-to-fixed");
+  const std::vector<Eigen::Vector3d> ct{{0, 0, 0}, {40, 5, 10}, {-35, 8, 20}, {5, 45, -10}, {10, -40, 15}};
+  Eigen::Isometry3d patient_T_ct = Eigen::Isometry3d::Identity();
+  patient_T_ct.linear() = so3Exp(Eigen::Vector3d(0.3, -0.5, 1.2));
+  patient_T_ct.translation() = Eigen::Vector3d(-120, 80, 35);
+  std::vector<std::pair<std::string, Eigen::Vector3d>> moving, fixed;
+  for (std::size_t i = 0; i < ct.size(); ++i) {
+    moving.emplace_back("F-" + std::to_string(i + 1), ct[i]);
+    fixed.emplace_back("F-" + std::to_string(i + 1), patient_T_ct * ct[i]);
+  }
+  writeFcsv(dir / "patient.fcsv", fixed);
+  writeFcsv(dir / "ct.fcsv", moving);
+  std::map<std::string, std::filesystem::path> files;
+  std::map<std::string, Eigen::Matrix4d> reported;
+  for (const std::string ext : {".txt", ".tfm", ".mat"}) {
+    files[ext] = dir / ("CtToPatient" + ext);
+    const auto result = runCli({"register-points", (dir / "patient.fcsv").string(), (dir / "ct.fcsv").string(),
+                                "--output", files[ext].string(), "--json"});
+    ASSERT_EQ(result.exit_code, 0) << result.err;
+    reported[ext] = reportedMatrix(nlohmann::json::parse(result.out)["fixed_T_moving"]);
+  }
+  EXPECT_LT((reported[".txt"] - reported[".tfm"]).cwiseAbs().maxCoeff(), 1e-12);
+  // writeFcsv prints 6 significant digits: coordinates of ~100 mm are rounded by up to 5e-4 mm, so the
+  // fit is within ~1e-3 of patient_T_ct (translation; the rotation within ~1e-5 over 40 mm).
+  EXPECT_LT((reported[".tfm"] - patient_T_ct.matrix()).cwiseAbs().maxCoeff(), 2e-3);
+  expectMovingToFixedFiles(files, reported[".tfm"]);
 }
 
 }  // namespace

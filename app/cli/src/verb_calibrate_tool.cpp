@@ -47,10 +47,10 @@ Report runPivot(const PivotVerbOptions& options) {
   report.json["residuals_mm"] = result.residuals_mm;
   if (!options.output.empty()) {
     // A Slicer transform node "TipToMarker": its ToParent maps tip -> marker
-    // (translation by the tip offset); transform files hold the inverse, in LPS.
+    // (translation by the tip offset); io/transform_io.h's convention for the file.
     Eigen::Isometry3d marker_T_tip = Eigen::Isometry3d::Identity();
     marker_T_tip.translation() = result.tip_marker;
-    io::writeTransformFile(marker_T_tip.inverse().matrix(), options.output);
+    io::writeChildToParent(marker_T_tip.matrix(), options.output);
     report.json["output"] = options.output;
   }
   std::ostringstream text;
@@ -105,9 +105,9 @@ Report runSpin(const SpinVerbOptions& options) {
   report.json["axis_rms_deg"] = result.axis_rms_angle * kDegPerRad;
   report.json["axis_distinctness"] = result.axis_distinctness;
   if (!options.output.empty()) {
-    // TipToMarker with the shaft as the tip frame's z (PLUS's convention); transform files hold the inverse.
+    // TipToMarker with the shaft as the tip frame's z (PLUS's convention); io/transform_io.h's file convention.
     const Eigen::Isometry3d marker_T_tip = registration::tipFrame(tip, result.shaft_marker);
-    io::writeTransformFile(marker_T_tip.inverse().matrix(), options.output);
+    io::writeChildToParent(marker_T_tip.matrix(), options.output);
     report.json["output"] = options.output;
     report.json["tip_frame"] = Json::array();
     for (int r = 0; r < 4; ++r) {
@@ -140,8 +140,10 @@ void registerCalibrateToolVerbs(CLI::App& app, GlobalOptions& options, VerbList&
   pivot_cmd->add_option("--min-rotation-deg", pivot->min_rotation_deg, "smallest rotation range accepted, degrees")
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
-  pivot_cmd->add_option("--output", pivot->output,
-                        "write the tip offset as a Slicer-readable transform TipToMarker (.tfm, .h5 or .txt)");
+  pivot_cmd->add_option(
+      "--output", pivot->output,
+      "write the tip offset as the transform TipToMarker (tip -> marker): .tfm/.h5/.mat as 3D Slicer reads "
+      "them (the inverse, LPS), .txt the plain 4x4 marker_T_tip");
   addJsonFlag(*pivot_cmd, options);
   verbs.emplace_back(pivot_cmd, [pivot] { return runPivot(*pivot); });
 
@@ -160,8 +162,10 @@ void registerCalibrateToolVerbs(CLI::App& app, GlobalOptions& options, VerbList&
   spin_cmd->add_option("--min-spin-deg", spin->min_spin_deg, "smallest spin accepted, degrees")
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
-  spin_cmd->add_option("--output", spin->output,
-                       "write the tip's frame TipToMarker (origin at --tip, z along the shaft; .tfm, .h5 or .txt)");
+  spin_cmd->add_option(
+      "--output", spin->output,
+      "write the tip's frame TipToMarker (origin at --tip, z along the shaft): .tfm/.h5/.mat as 3D Slicer "
+      "reads them (the inverse, LPS), .txt the plain 4x4 marker_T_tip");
   addJsonFlag(*spin_cmd, options);
   verbs.emplace_back(spin_cmd, [spin] { return runSpin(*spin); });
 }

@@ -46,11 +46,9 @@ Eigen::Matrix4d imageToProbe(const DeformTrackOptions& o) {
     throw InvalidArgumentError("deform-track: give --calibration or --config, not both");
   }
   if (!o.calibration.empty()) {
-    const io::TransformFile f = io::readTransformFile(o.calibration);
-    if (!f.linear) throw UnsupportedError("deform-track: calibration " + o.calibration + " is not a linear transform");
-    // A plain 4x4 text matrix is ImageToProbe as written; ITK files hold the
-    // inverse (fixed-to-moving), as Slicer and this project write them.
-    return f.format == "matrix-text" ? f.matrix : io::parentFromChildLps(f.matrix);
+    // The node ImageToProbe by io/transform_io.h's convention: a plain .txt is probe_T_image as written, an
+    // ITK file (.tfm/.h5, as Slicer and us-spatial-calibration write it) holds its inverse.
+    return io::readChildToParent(o.calibration);
   }
   if (!o.config.empty()) {
     const auto cfg = io::readDeviceSet(o.config);
@@ -278,7 +276,10 @@ void registerDeformTrackVerb(CLI::App& app, GlobalOptions& options, VerbList& ve
                                  "(paper 001 Algorithm 1)");
   sub->add_option("--model", o->model, "statismo .h5 shape model, in the --model-frame frame")->required();
   sub->add_option("--sequence", o->sequence, "PLUS tracked sequence (.igs.mha, .mha, .seq.nrrd)")->required();
-  sub->add_option("--calibration", o->calibration, "ImageToProbe (4x4 .txt as written, or ITK .tfm/.h5)");
+  sub->add_option(
+      "--calibration", o->calibration,
+      "the calibration ImageToProbe (probe_T_image in pixels): a plain 4x4 .txt, or an ITK .tfm/.h5 as Slicer and "
+      "us-spatial-calibration write it (the inverse)");
   sub->add_option("--config", o->config, "PLUS configuration with CoordinateDefinitions Image -> Probe");
   sub->add_option("--contours", o->contours,
                   "external segmenter contours per frame (.json or .csv; see deformation doc) instead of the "

@@ -74,7 +74,7 @@ Report writeCase(const DeformTrialOptions& o) {
   io::writeStatismoModel(sweep.model, dir / "model.h5");
   io::writeMesh(sweep.truth, dir / "truth.vtp");
   io::writeSequence(dir / "sweep.igs.mha", sweep.sequence);
-  io::writeTransformFile(sweep.image_to_probe, dir / "ImageToProbe.txt");
+  io::writeChildToParent(sweep.image_to_probe, dir / "ImageToProbe.txt");  // the plain probe_T_image
   Json frames = Json::array();
   for (std::size_t f = 0; f < sweep.true_contours.size(); ++f) {
     Json contours = Json::array();

@@ -238,8 +238,8 @@ Report runCalibrate(const CalibrateOptions& o) {
   j["table1"] = dispersionJson(he.dispersion);
   j["rpee"] = rpeeJson(r.rpee);
   if (!o.output.empty()) {
-    // Slicer convention (transform_io.h): a node CameraToHmd is stored as its inverse.
-    io::writeTransformFile(he.hmd_T_camera.inverse().matrix(), o.output);
+    // The node CameraToHmd (io/transform_io.h: an ITK file holds the inverse of its ToParent, a .txt hmd_T_camera).
+    io::writeChildToParent(he.hmd_T_camera.matrix(), o.output);
     j["output"] = o.output;
   }
   report.text = "Checkerboard hand-eye calibration from " + std::to_string(r.image_names.size()) + " images (" +
@@ -289,7 +289,9 @@ void registerHmdCheckerboardVerbs(CLI::App& app, GlobalOptions& options, VerbLis
   c->add_option("--calib-rows", cal->calib_rows, "inner corner rows of the printed board")->capture_default_str();
   c->add_option("--calib-cols", cal->calib_cols, "inner corner columns of the printed board")->capture_default_str();
   c->add_option("--calib-square", cal->calib_square_mm, "square size of the printed board, mm")->capture_default_str();
-  c->add_option("--output", cal->output, "write CameraToHmd as a Slicer-readable transform (.tfm, .h5, .txt)");
+  c->add_option("--output", cal->output,
+                "write the transform CameraToHmd (camera -> HMD marker): .tfm/.h5/.mat as 3D Slicer reads them (the "
+                "inverse, LPS), .txt the plain 4x4 hmd_T_camera");
   addJsonFlag(*c, options);
   verbs.emplace_back(c, [cal] { return runCalibrate(*cal); });
 }

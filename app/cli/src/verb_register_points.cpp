@@ -150,9 +150,8 @@ Report run(const RegisterPointsOptions& options) {
     report.json["targets"] = tre;
   }
   if (!options.output.empty()) {
-    // Slicer node MovingToFixed: ToParent maps moving -> fixed; transform
-    // files hold the inverse (LPS).
-    io::writeTransformFile(result.fixed_T_moving.inverse().matrix(), options.output);
+    // The node MovingToFixed: fixed_T_moving, by io/transform_io.h's convention whatever the extension.
+    io::writeChildToParent(result.fixed_T_moving.matrix(), options.output);
     report.json["output"] = options.output;
     text << "  written: " << options.output << " (apply it to the moving data in 3D Slicer)\n";
   }
@@ -178,7 +177,10 @@ void registerRegisterPointsVerb(CLI::App& app, GlobalOptions& options, VerbList&
   sub->add_option("--fle", opts->fle_mm,
                   "fiducial localisation error RMS (mm) for the TRE prediction; default: "
                   "implied by the FRE");
-  sub->add_option("--output", opts->output, "write the transform MovingToFixed (.tfm, .h5 or .txt)");
+  sub->add_option(
+      "--output", opts->output,
+      "write the transform MovingToFixed (fixed_T_moving): .tfm/.h5/.mat as 3D Slicer reads them (the inverse, "
+      "LPS), .txt the plain 4x4 fixed_T_moving");
   addJsonFlag(*sub, options);
   verbs.emplace_back(sub, [opts] { return run(*opts); });
 }

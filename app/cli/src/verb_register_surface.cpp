@@ -126,8 +126,8 @@ Report run(const RegisterSurfaceOptions& options) {
        << (r.converged ? "converged" : "NOT converged (raise --max-iterations)") << "\n  max point distance "
        << d.back() << " mm\n";
   if (!options.output.empty()) {
-    // Slicer node MovingToFixed: ToParent maps moving -> fixed; transform files hold the inverse (LPS).
-    io::writeTransformFile(r.fixed_T_moving.inverse().matrix(), options.output);
+    // The node MovingToFixed: fixed_T_moving, by io/transform_io.h's convention whatever the extension.
+    io::writeChildToParent(r.fixed_T_moving.matrix(), options.output);
     report.json["output"] = options.output;
     text << "  written: " << options.output << '\n';
   }
@@ -164,7 +164,10 @@ void registerRegisterSurfaceVerb(CLI::App& app, GlobalOptions& options, VerbList
   sub->add_option("--max-iterations", opts->max_iterations, "iteration limit")
       ->check(CLI::Range(1, 100000))
       ->capture_default_str();
-  sub->add_option("--output", opts->output, "write the transform MovingToFixed (.tfm, .h5 or .txt)");
+  sub->add_option(
+      "--output", opts->output,
+      "write the transform MovingToFixed (fixed_T_moving): .tfm/.h5/.mat as 3D Slicer reads them (the inverse, "
+      "LPS), .txt the plain 4x4 fixed_T_moving");
   addJsonFlag(*sub, options);
   verbs.emplace_back(sub, [opts] { return run(*opts); });
 }

@@ -145,6 +145,71 @@ void checkItkTextCounts(const std::string& text, const std::vector<detail::RawTr
   }
 }
 
+Eigen::Matrix4d linearMatrix(const TransformFile& file, const std::filesystem::path& path) {
+  if (!file.linear) {
+    std::string names;
+    for (const auto& c : file.components) {
+      if (!names.empty()) names += ", ";
+      names += c;
+    }
+    throw UnsupportedError("transform file " + quoted(path) + " holds a non-linear transform (" + names +
+                           "): a 4x4 matrix cannot represent it");
+  }
+  return file.matrix;
+}
+
+/// `m` as a rigid transform, or UnsupportedError naming the file and how far from rigid it is.
+Eigen::Isometry3d rigidFrom(const Eigen::Matrix4d& m, const std::filesystem::path& path, double tolerance,
+                            const char* affine_reader) {
+  const Eigen::Matrix3d r = m.topLeftCorner<3, 3>();
+  const double error = (r.transpose() * r - Eigen::Matrix3d::Identity()).norm();
+  if (!(error <= tolerance) || r.determinant() <= 0.0) {
+    const Eigen::Vector3d scales = Eigen::JacobiSVD<Eigen::Matrix3d>(r).singularValues();
+    std::ostringstream msg;
+    msg << "transform file " << quoted(path) << " is not rigid: its 3x3 part has singular values " << scales.x() << ", "
+        << scales.y() << ", " << scales.z() << " and determinant " << r.determinant() << " (||R^T R - I|| = " << error
+        << " > " << tolerance << "); use " << affine_reader
+        << " for scaling or shear, or remove them in the tool that wrote it";
+    throw UnsupportedError(msg.str());
+  }
+  // Project round-off away so the result is exactly a rotation.
+  Eigen::JacobiSVD<Eigen::Matrix3d> svd(r, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
+  t.linear() = svd.matrixU() * svd.matrixV().transpose();
+  t.translation() = m.topRightCorner<3, 1>();
+  return t;
+}
+
+/// The ratio of the smallest to the largest singular value of the 3x3 part
+/// below which an affine is treated as singular: its inverse would carry
+/// less than ~4 significant digits.
+constexpr double kSingularRatio = 1e-12;
+
+bool invertible(const Eigen::Matrix4d& m, Eigen::Vector3d& singular_values) {
+  singular_values = Eigen::JacobiSVD<Eigen::Matrix3d>(Eigen::Matrix3d(m.topLeftCorner<3, 3>())).singularValues();
+  return singular_values.z() > kSingularRatio * singular_values.x();
+}
+
+/// [A t; 0 1]^-1 = [A^-1, -A^-1 t; 0 1] (the caller checked that A is invertible).
+Eigen::Matrix4d affineInverse(const Eigen::Matrix4d& m) {
+  const Eigen::Matrix3d a = m.topLeftCorner<3, 3>();
+  const Eigen::Matrix3d inverse = a.inverse();
+  Eigen::Matrix4d out = Eigen::Matrix4d::Identity();
+  out.topLeftCorner<3, 3>() = inverse;
+  out.topRightCorner<3, 1>() = -(inverse * m.topRightCorner<3, 1>());
+  return out;
+}
+
+std::string singularText(const Eigen::Vector3d& s) {
+  std::ostringstream out;
+  out << s.x() << ", " << s.y() << ", " << s.z();
+  return out.str();
+}
+
+bool isItkExtension(const std::string& ext) {
+  return ext == ".tfm" || ext == ".h5" || ext == ".hdf5" || ext == ".mat";
+}
+
 }  // namespace
 
 TransformFile readTransformFile(const std::filesystem::path& path) {
@@ -201,38 +266,11 @@ TransformFile readTransformFile(const std::filesystem::path& path) {
 }
 
 Eigen::Matrix4d readLinearTransform(const std::filesystem::path& path) {
-  const TransformFile file = readTransformFile(path);
-  if (!file.linear) {
-    std::string names;
-    for (const auto& c : file.components) {
-      if (!names.empty()) names += ", ";
-      names += c;
-    }
-    throw UnsupportedError("transform file " + quoted(path) + " holds a non-linear transform (" + names +
-                           "): a 4x4 matrix cannot represent it");
-  }
-  return file.matrix;
+  return linearMatrix(readTransformFile(path), path);
 }
 
 Eigen::Isometry3d readRigidTransform(const std::filesystem::path& path, double tolerance) {
-  const Eigen::Matrix4d m = readLinearTransform(path);
-  const Eigen::Matrix3d r = m.topLeftCorner<3, 3>();
-  const double error = (r.transpose() * r - Eigen::Matrix3d::Identity()).norm();
-  if (error > tolerance || r.determinant() <= 0.0) {
-    const Eigen::Vector3d scales = Eigen::JacobiSVD<Eigen::Matrix3d>(r).singularValues();
-    std::ostringstream msg;
-    msg << "transform file " << quoted(path) << " is not rigid: its 3x3 part has singular values " << scales.x() << ", "
-        << scales.y() << ", " << scales.z() << " and determinant " << r.determinant() << " (||R^T R - I|| = " << error
-        << " > " << tolerance
-        << "); use readLinearTransform for scaling or shear, or remove them in the tool that wrote it";
-    throw UnsupportedError(msg.str());
-  }
-  // Project round-off away so the result is exactly a rotation.
-  Eigen::JacobiSVD<Eigen::Matrix3d> svd(r, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
-  t.linear() = svd.matrixU() * svd.matrixV().transpose();
-  t.translation() = m.topRightCorner<3, 1>();
-  return t;
+  return rigidFrom(readLinearTransform(path), path, tolerance, "readLinearTransform");
 }
 
 void writeTransformFile(const Eigen::Matrix4d& transform, const std::filesystem::path& path) {
@@ -264,6 +302,48 @@ void writeTransformFile(const Eigen::Matrix4d& transform, const std::filesystem:
     offset[static_cast<std::size_t>(r)] = transform(r, 3);
   }
   detail::writeRawAffine(matrix, offset, path);
+}
+
+void writeChildToParent(const Eigen::Matrix4d& parent_T_child, const std::filesystem::path& path) {
+  if (!parent_T_child.allFinite()) {
+    throw InvalidArgumentError("cannot write transform to " + quoted(path) + ": the matrix has non-finite entries");
+  }
+  if ((parent_T_child.row(3) - Eigen::RowVector4d(0, 0, 0, 1)).cwiseAbs().maxCoeff() > 1e-12) {
+    throw InvalidArgumentError("cannot write transform to " + quoted(path) +
+                               ": the last row must be 0 0 0 1 (a projective matrix is not a transform)");
+  }
+  const std::string ext = lowerExtension(path);
+  if (ext == ".txt") {
+    writeTransformFile(parent_T_child, path);  // a plain matrix: parent_T_child as it is
+    return;
+  }
+  if (!isItkExtension(ext)) {
+    throw UnsupportedError("cannot write transform to " + quoted(path) + ": use .tfm, .h5, .mat or .txt");
+  }
+  Eigen::Vector3d s;
+  if (!invertible(parent_T_child, s)) {
+    throw InvalidArgumentError("cannot write transform to " + quoted(path) +
+                               ": its 3x3 part is singular (singular values " + singularText(s) +
+                               "), and an ITK file holds the inverse; write it as a plain .txt matrix, or check "
+                               "the calibration that produced it");
+  }
+  writeTransformFile(affineInverse(parent_T_child), path);
+}
+
+Eigen::Matrix4d readChildToParent(const std::filesystem::path& path) {
+  const TransformFile file = readTransformFile(path);
+  const Eigen::Matrix4d m = linearMatrix(file, path);
+  if (file.format == "matrix-text") return m;
+  Eigen::Vector3d s;
+  if (!invertible(m, s)) {
+    throw FormatError("transform file " + quoted(path) + " holds a singular transform (singular values " +
+                      singularText(s) + "): it has no inverse, so it cannot be a node's ChildToParent");
+  }
+  return affineInverse(m);
+}
+
+Eigen::Isometry3d readChildToParentRigid(const std::filesystem::path& path, double tolerance) {
+  return rigidFrom(readChildToParent(path), path, tolerance, "readChildToParent");
 }
 
 Eigen::Matrix4d parentFromChildLps(const Eigen::Matrix4d& file_transform) {

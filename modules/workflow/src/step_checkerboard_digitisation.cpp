@@ -425,8 +425,8 @@ StepResult runCheckerboardDigitisation(Session& session, const Json& params, con
   const std::string corners_file = freeSessionName(session, kDigitisationStep, "corners", ".csv");
   hmd::writeBoardCorners(session.resolve(corners_file), points);
   const std::string tfm = freeSessionName(session, kDigitisationStep, "GridToBoard", ".tfm");
-  // Slicer's convention (transform_io.h): a node GridToBoard is stored as its inverse.
-  io::writeTransformFile(grid.board_T_grid.inverse().matrix(), session.resolve(tfm));
+  // The node GridToBoard (io/transform_io.h: the .tfm holds the inverse of its ToParent).
+  io::writeChildToParent(grid.board_T_grid.matrix(), session.resolve(tfm));
   result.outputs.push_back(corners_file);
   result.outputs.push_back(tfm);
   result.ok = true;

@@ -486,8 +486,8 @@ StepResult runHmdCameraCalibration(Session& session, const Json& params, const S
   const auto solution = hmd::calibrateCheckerboardDataset(files, options);
   const auto& he = solution.hand_eye;
   const std::string tfm = freeSessionName(session, kCameraStep, "CameraToHeadset", ".tfm");
-  // Slicer's convention (transform_io.h): a node CameraToHeadset is stored as its inverse.
-  io::writeTransformFile(he.hmd_T_camera.inverse().matrix(), session.resolve(tfm));
+  // The node CameraToHeadset (io/transform_io.h: the .tfm holds the inverse of its ToParent).
+  io::writeChildToParent(he.hmd_T_camera.matrix(), session.resolve(tfm));
   result.outputs.push_back(tfm);
   result.ok = true;
   result.figures["source"] = source;

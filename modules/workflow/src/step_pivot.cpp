@@ -186,9 +186,9 @@ StepResult runPivotStep(Session& session, const Json& params, const StepContext&
   const std::string tip_name = o.tool + "TipTo" + o.tool;
   const std::string output = step + "/" + tip_name + ".tfm";
   std::filesystem::create_directories(session.resolve(step));
-  // Slicer's convention (io/transform_io.h): the file holds the inverse of the node's ToParent, as
-  // mrsns-cli calibrate-pivot --output writes it.
-  io::writeTransformFile(marker_T_tip.inverse().matrix(), session.resolve(output));
+  // The node StylusTipToStylus (io/transform_io.h: the .tfm holds the inverse of its ToParent, as Slicer
+  // reads it), as mrsns-cli calibrate-pivot --output writes it.
+  io::writeChildToParent(marker_T_tip.matrix(), session.resolve(output));
   result.outputs.insert(result.outputs.begin(), output);
   result.ok = true;
   result.figures["tip_marker_mm"] = {r.tip_marker.x(), r.tip_marker.y(), r.tip_marker.z()};

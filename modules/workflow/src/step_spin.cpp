@@ -384,8 +384,8 @@ StepResult runSpinStep(Session& session, const Json& params, const StepContext& 
   const std::string tip_name = o.tool + "TipTo" + o.tool;
   const std::string output = step + "/" + tip_name + ".tfm";
   std::filesystem::create_directories(session.resolve(step));
-  // Slicer's convention (io/transform_io.h): the file holds the inverse of the node's ToParent.
-  io::writeTransformFile(marker_T_tip.inverse().matrix(), session.resolve(output));
+  // The node StylusTipToStylus (io/transform_io.h: the .tfm holds the inverse of its ToParent).
+  io::writeChildToParent(marker_T_tip.matrix(), session.resolve(output));
   result.outputs.insert(result.outputs.begin(), output);
   result.ok = true;
   const Eigen::Vector3d& s = w.result.shaft_marker;

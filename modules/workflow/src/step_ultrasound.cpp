@@ -313,7 +313,9 @@ StepResult runUsSpatialCalibration(Session& session, const Json& params, const S
   const auto& r = run.result;
   const std::string output = "us-spatial-calibration/ImageToProbe.tfm";
   std::filesystem::create_directories(session.resolve("us-spatial-calibration"));
-  io::writeTransformFile(r.probe_T_image, session.resolve(output));
+  // The node ImageToProbe, an affine with the mm/pixel scale (io/transform_io.h: the .tfm holds the inverse
+  // of its ToParent, so Slicer places the image pixels in the probe's frame).
+  io::writeChildToParent(r.probe_T_image, session.resolve(output));
 
   StepResult result;
   result.ok = true;

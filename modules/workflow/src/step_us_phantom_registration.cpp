@@ -199,7 +199,8 @@ StepResult runUsPhantomRegistration(Session& session, const Json& params, const 
   const Eigen::Isometry3d& reference_T_phantom = acq.landmark_patient_T_ct;
   const std::string output = "us-phantom-registration/PhantomToReference.tfm";
   std::filesystem::create_directories(session.resolve("us-phantom-registration"));
-  io::writeTransformFile(reference_T_phantom.matrix(), session.resolve(output));
+  // The node PhantomToReference (io/transform_io.h: the .tfm holds the inverse of its ToParent).
+  io::writeChildToParent(reference_T_phantom.matrix(), session.resolve(output));
   result.outputs.push_back(output);
   result.figures["landmarks"] = landmarks;
   result.figures["fre_rms_mm"] = pp.fre_rms_mm;
