@@ -2,8 +2,11 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <Eigen/Core>
+#include <algorithm>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <vector>
 
 #include "cli_runner.h"
 #include "test_data.h"
@@ -53,6 +56,21 @@ TEST(CliFiles, InfoOnDicomSeriesFolder) {
   EXPECT_EQ(j["dicom_files"], 20);
   EXPECT_NEAR(j["physical_extent_mm"][0].get<double>(), 500.0, 1e-9);
   EXPECT_FALSE(j.contains("labels"));  // a CT in HU has far more than 256 values
+  // The folder's series, each with what a user chooses it by (never the patient's name).
+  EXPECT_EQ(j["modality"], "CT");
+  EXPECT_EQ(j["series_description"], "CT Body 3.0");
+  ASSERT_EQ(j["series"].size(), 1U);
+  const Json& s = j["series"][0];
+  EXPECT_EQ(s["index"], 1);
+  EXPECT_EQ(s["uid"], j["series_id"]);
+  EXPECT_EQ(s["modality"], "CT");
+  EXPECT_EQ(s["description"], "CT Body 3.0");
+  EXPECT_EQ(s["files"], 20);
+  EXPECT_EQ(s["rows"], 512);
+  EXPECT_EQ(s["columns"], 512);
+  EXPECT_EQ(s["study_date"], "20221208");
+  EXPECT_TRUE(s["read"].get<bool>());
+  EXPECT_EQ(j.dump().find("patient_name"), std::string::npos);
 }
 
 TEST(CliFiles, InfoOnVerseLabelMap) {
@@ -142,10 +160,33 @@ TEST(CliFiles, ConvertFcsvToMarkupsJson) {
   EXPECT_EQ(doc["markups"][0]["type"], "Fiducial");
 }
 
+/// Rows of a 4x4 as `info` prints them.
+Eigen::Matrix4d filesRowsMatrix(const Json& rows) {
+  Eigen::Matrix4d m;
+  for (int r = 0; r < 4; ++r) {
+    for (int c = 0; c < 4; ++c) m(r, c) = rows[static_cast<std::size_t>(r)][static_cast<std::size_t>(c)].get<double>();
+  }
+  return m;
+}
+
+/// The 16 numbers of a plain text matrix, read by hand.
+Eigen::Matrix4d filesPlainMatrix(const std::filesystem::path& path) {
+  std::ifstream in(path);
+  std::vector<double> v;
+  double x = 0.0;
+  while (in >> x) v.push_back(x);
+  EXPECT_EQ(v.size(), 16U) << path;
+  Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
+  for (std::size_t i = 0; i < std::min<std::size_t>(v.size(), 16); ++i) m(i / 4, i % 4) = v[i];
+  return m;
+}
+
 TEST(CliFiles, TransformInfoAndConversion) {
   const auto dir = scratchDirectory("cli");
-  // 90 deg about z, translation (3, 4, 0).
+  // The node MToWorld: 90 deg about z, translation (3, 4, 0), as a plain matrix (parent_T_child).
   writeText(dir / "m.txt", "0 -1 0 3\n1 0 0 4\n0 0 1 0\n0 0 0 1\n");
+  Eigen::Matrix4d m;
+  m << 0, -1, 0, 3, 1, 0, 0, 4, 0, 0, 1, 0, 0, 0, 0, 1;
   const CliResult r = runCli({"convert", (dir / "m.txt").string(), (dir / "m.tfm").string()});
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const Json j = infoJson(dir / "m.tfm");
@@ -154,7 +195,51 @@ TEST(CliFiles, TransformInfoAndConversion) {
   EXPECT_TRUE(j["is_rigid"].get<bool>());
   EXPECT_NEAR(j["rotation_angle_deg"].get<double>(), 90.0, 1e-9);
   EXPECT_NEAR(j["translation_norm_mm"].get<double>(), 5.0, 1e-12);
-  EXPECT_NEAR(j["matrix"][0][1].get<double>(), -1.0, 1e-15);
+  // The .tfm holds the inverse (3D Slicer's convention): R^T and -R^T t = (-4, 3, 0), exact in binary.
+  Eigen::Matrix4d inverse;
+  inverse << 0, 1, 0, -4, -1, 0, 0, 3, 0, 0, 1, 0, 0, 0, 0, 1;
+  EXPECT_LT((filesRowsMatrix(j["matrix"]) - inverse).cwiseAbs().maxCoeff(), 1e-15);
+  EXPECT_LT((filesRowsMatrix(j["child_to_parent"]) - m).cwiseAbs().maxCoeff(), 1e-15);
+  // What Slicer displays (RAS): x and y flipped, F M F.
+  const Eigen::Matrix4d flip = Eigen::Vector4d(-1, -1, 1, 1).asDiagonal();
+  EXPECT_LT((filesRowsMatrix(j["slicer_to_parent_ras"]) - flip * m * flip).cwiseAbs().maxCoeff(), 1e-15);
+  // The plain matrix's info: the raw matrix is the ChildToParent itself.
+  const Json plain = infoJson(dir / "m.txt");
+  EXPECT_EQ(plain["format"], "matrix-text");
+  EXPECT_EQ(plain["matrix"], plain["child_to_parent"]);
+}
+
+TEST(CliFiles, ConvertKeepsTheMeaningOfATransformAcrossConventions) {
+  const auto dir = scratchDirectory("cli");
+  // What 3D Slicer saves for a node whose ToParent in LPS is M = [Rz(90) | (-10, -20, 30)]:
+  // inverse(M) = [0 1 0; -1 0 0; 0 0 1 | (20, -10, -30)].
+  writeText(dir / "NodeToWorld.tfm",
+            "#Insight Transform File V1.0\n#Transform 0\nTransform: AffineTransform_double_3_3\n"
+            "Parameters: 0 1 0 -1 0 0 0 0 1 20 -10 -30\nFixedParameters: 0 0 0\n");
+  Eigen::Matrix4d m;
+  m << 0, -1, 0, -10, 1, 0, 0, -20, 0, 0, 1, 30, 0, 0, 0, 1;
+  // .tfm -> .txt: the plain matrix is M (it used to be the file's numbers, the inverse).
+  ASSERT_EQ(runCli({"convert", (dir / "NodeToWorld.tfm").string(), (dir / "NodeToWorld.txt").string()}).exit_code, 0);
+  EXPECT_LT((filesPlainMatrix(dir / "NodeToWorld.txt") - m).cwiseAbs().maxCoeff(), 1e-15);
+  // .txt -> .h5 -> .tfm: back to Slicer's numbers.
+  ASSERT_EQ(runCli({"convert", (dir / "NodeToWorld.txt").string(), (dir / "NodeToWorld.h5").string()}).exit_code, 0);
+  ASSERT_EQ(runCli({"convert", (dir / "NodeToWorld.h5").string(), (dir / "back.tfm").string()}).exit_code, 0);
+  const Json back = infoJson(dir / "back.tfm");
+  Eigen::Matrix4d slicer_numbers;
+  slicer_numbers << 0, 1, 0, 20, -1, 0, 0, -10, 0, 0, 1, -30, 0, 0, 0, 1;
+  EXPECT_LT((filesRowsMatrix(back["matrix"]) - slicer_numbers).cwiseAbs().maxCoeff(), 1e-14);
+  EXPECT_LT((filesRowsMatrix(back["child_to_parent"]) - m).cwiseAbs().maxCoeff(), 1e-14);
+  // An affine (an ImageToProbe with 0.1 mm/pixel) keeps its meaning through .txt -> .tfm -> .txt.
+  writeText(dir / "ImageToProbe.txt", "0 -0.1 0 12.5\n0.1 0 0 -30\n0 0 1 2\n0 0 0 1\n");
+  ASSERT_EQ(runCli({"convert", (dir / "ImageToProbe.txt").string(), (dir / "ImageToProbe.tfm").string()}).exit_code, 0);
+  ASSERT_EQ(runCli({"convert", (dir / "ImageToProbe.tfm").string(), (dir / "again.txt").string()}).exit_code, 0);
+  // Two inversions of a 0.1-scaled matrix (condition 10): a few ulps of 300 (entries of the inverse).
+  EXPECT_LT((filesPlainMatrix(dir / "again.txt") - filesPlainMatrix(dir / "ImageToProbe.txt")).cwiseAbs().maxCoeff(),
+            1e-12);
+  const Json affine = infoJson(dir / "ImageToProbe.tfm");
+  EXPECT_FALSE(affine["is_rigid"].get<bool>());
+  // The ITK file's 3x3 is the inverse: 10 px per mm.
+  EXPECT_NEAR(affine["matrix"][0][1].get<double>(), 10.0, 1e-12);
 }
 
 TEST(CliFiles, CorruptInputsExitOneWithOneLineNamingTheFile) {

@@ -1,14 +1,20 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <unistd.h>
 #include <zlib.h>
 
 #include <algorithm>
+#include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <fstream>
 #include <random>
+#include <sstream>
 
+#include "cli_runner.h"
 #include "mrsns/core/error.h"
 #include "mrsns/io/image_io.h"
+#include "required_tool.h"
 #include "test_data.h"
 
 namespace mrsns::io {
@@ -373,6 +379,272 @@ TEST(ImageIo, MissingUnsupportedAndInvalidVolumes) {
   EXPECT_THROW(writeImage(v, dir / "bad.nrrd"), InvalidArgumentError);
   EXPECT_THROW(writeImage(syntheticVolume<std::uint8_t>(PixelType::UInt8), dir / "x.png"), UnsupportedError);
   EXPECT_THROW(writeImage(syntheticVolume<std::uint8_t>(PixelType::UInt8), dir / "nofolder" / "x.nrrd"), FileError);
+}
+
+// ---- DICOM series: listing, choice, modality; dcm2niix as a peer ----
+
+/// The slice files of a series folder, sorted.
+std::vector<std::filesystem::path> dicomSliceFiles(const std::filesystem::path& folder) {
+  std::vector<std::filesystem::path> files;
+  for (const auto& entry : std::filesystem::directory_iterator(folder)) files.push_back(entry.path());
+  std::sort(files.begin(), files.end());
+  return files;
+}
+
+/// `gdcmanon --dumb --replace TAG=VALUE ... -i in -o out` (the header rewritten, pixel data kept as stored).
+void dicomRewrite(const std::filesystem::path& gdcmanon, const std::filesystem::path& in,
+                  const std::filesystem::path& out, const std::vector<std::string>& replacements) {
+  std::vector<std::string> args = {"--dumb"};
+  for (const auto& r : replacements) {
+    args.push_back("--replace");
+    args.push_back(r);
+  }
+  for (const std::string& a : {std::string("-i"), in.string(), std::string("-o"), out.string()}) args.push_back(a);
+  const auto result = test::runProgram(gdcmanon, args);
+  ASSERT_EQ(result.exit_code, 0) << "gdcmanon failed on " << in << ": " << result.out << result.err;
+}
+
+void expectSameVolume(const ImageReadResult& a, const ImageReadResult& b) {
+  expectSameGeometry(a.image, b.image, 1e-12);
+  EXPECT_EQ(a.image.pixel_type, b.image.pixel_type);
+  EXPECT_TRUE(a.image.data == b.image.data);
+  EXPECT_EQ(a.series_uid, b.series_uid);
+  EXPECT_EQ(a.file_count, b.file_count);
+}
+
+TEST(ImageIoDicomSeries, TheSharedSeriesIsListedWithItsTagsAndReadByUidOrIndex) {
+  MRSNS_REQUIRE_DATA(folder, "ct/totalsegmentator/example_ct_dicom");
+  const std::vector<DicomSeriesInfo> series = listDicomSeries(folder);
+  ASSERT_EQ(series.size(), 1U);
+  const DicomSeriesInfo& s = series.front();
+  // The headers (gdcmdump): Modality CT, SeriesDescription "CT Body 3.0", StudyDate 20221208, BodyPartExamined
+  // PARTIALBODY, 512 x 512; the data set was anonymised: SeriesInstanceUID, SeriesNumber and PatientID are empty.
+  EXPECT_EQ(s.modality, "CT");
+  EXPECT_EQ(s.files, 20U);
+  EXPECT_EQ(s.rows, 512);
+  EXPECT_EQ(s.columns, 512);
+  EXPECT_EQ(s.description, "CT Body 3.0");
+  EXPECT_EQ(s.study_date, "20221208");
+  EXPECT_EQ(s.body_part, "PARTIALBODY");
+  EXPECT_EQ(s.series_instance_uid, "");
+  EXPECT_EQ(s.series_number, "");
+  EXPECT_EQ(s.patient_id, "");
+  EXPECT_FALSE(s.uid.empty());
+
+  const ImageReadResult read = readImageFile(folder);
+  EXPECT_EQ(read.modality, "CT");
+  EXPECT_EQ(read.series_description, "CT Body 3.0");
+  EXPECT_EQ(read.study_date, "20221208");
+  EXPECT_EQ(read.series_uid, s.uid);
+  EXPECT_EQ(read.series_in_folder, 1U);
+  const ImageReadResult by_uid = readImageFile(folder, ImageReadOptions{s.uid});
+  const ImageReadResult by_index = readImageFile(folder, ImageReadOptions{"1"});
+  expectSameVolume(by_uid, read);
+  expectSameVolume(by_index, read);
+  EXPECT_EQ(by_index.modality, "CT");
+}
+
+TEST(ImageIoDicomSeries, AnUnknownSeriesIsRefusedNamingTheSeriesThere) {
+  MRSNS_REQUIRE_DATA(folder, "ct/totalsegmentator/example_ct_dicom");
+  for (const std::string choice : {"2", "0", "1.2.840.99999.1", "CT Body 3.0"}) {
+    SCOPED_TRACE(choice);
+    try {
+      (void)readImageFile(folder, ImageReadOptions{choice});
+      ADD_FAILURE() << "series '" << choice << "' was accepted";
+    } catch (const InvalidArgumentError& e) {
+      EXPECT_THAT(e.what(), HasSubstr(folder.string()));
+      EXPECT_THAT(e.what(), HasSubstr("'" + choice + "'"));
+      EXPECT_THAT(e.what(), HasSubstr("1: series (no number), CT \"CT Body 3.0\", 20 files"));
+      EXPECT_THAT(e.what(), HasSubstr("index (1 to 1)"));
+    }
+  }
+  MRSNS_REQUIRE_DATA(file, "ct/nema/CT_small.dcm");
+  // A series is chosen in a folder only.
+  EXPECT_THROW((void)readImageFile(file, ImageReadOptions{"1"}), InvalidArgumentError);
+  EXPECT_THROW((void)listDicomSeries(file), FileError);
+  EXPECT_THROW((void)listDicomSeries(folder / "missing"), FileError);
+  const auto empty = test::scratchDirectory("empty");
+  EXPECT_TRUE(listDicomSeries(empty).empty());
+  try {
+    (void)readImageFile(empty);
+    FAIL() << "an empty folder was read";
+  } catch (const FormatError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("no DICOM image series"));
+  }
+}
+
+TEST(ImageIoDicomSeries, AFolderWithTwoSeriesListsBothAndReadsEachByChoice) {
+  MRSNS_REQUIRE_DATA(folder, "ct/totalsegmentator/example_ct_dicom");
+  MRSNS_REQUIRE_DATA(small, "ct/nema/CT_small.dcm");
+  const auto dir = test::scratchDirectory("two-series");
+  for (const auto& f : dicomSliceFiles(folder)) std::filesystem::copy_file(f, dir / f.filename());
+  std::filesystem::copy_file(small, dir / "CT_small.dcm");
+  const std::vector<DicomSeriesInfo> series = listDicomSeries(dir);
+  ASSERT_EQ(series.size(), 2U);
+  // Largest first.
+  EXPECT_EQ(series[0].files, 20U);
+  EXPECT_EQ(series[0].description, "CT Body 3.0");
+  // CT_small.dcm (gdcmdump): SeriesInstanceUID 1.3.6.1.4.1.5962.1.3.1.1.20040119072730.12322, SeriesNumber 1,
+  // 128 x 128, StudyDate 20040119, PatientID 1CT1.
+  const DicomSeriesInfo& nema = series[1];
+  EXPECT_EQ(nema.files, 1U);
+  EXPECT_EQ(nema.modality, "CT");
+  EXPECT_EQ(nema.series_instance_uid, "1.3.6.1.4.1.5962.1.3.1.1.20040119072730.12322");
+  EXPECT_EQ(nema.series_number, "1");
+  EXPECT_EQ(nema.rows, 128);
+  EXPECT_EQ(nema.columns, 128);
+  EXPECT_EQ(nema.study_date, "20040119");
+  EXPECT_EQ(nema.patient_id, "1CT1");
+  EXPECT_NE(nema.uid, series[0].uid);
+
+  // No choice: the largest, as before (with a warning).
+  const ImageReadResult shared = readImageFile(folder);
+  const ImageReadResult largest = readImageFile(dir);
+  EXPECT_EQ(largest.series_in_folder, 2U);
+  EXPECT_EQ(largest.file_count, 20U);
+  expectSameGeometry(largest.image, shared.image, 1e-12);
+  EXPECT_TRUE(largest.image.data == shared.image.data);
+  EXPECT_TRUE(readImageFile(dir, ImageReadOptions{series[0].uid}).image.data == shared.image.data);
+
+  // The NEMA slice by its index, its uid and its SeriesInstanceUID: the same as reading the file alone.
+  const ImageReadResult alone = readImageFile(small);
+  EXPECT_EQ(alone.modality, "CT");
+  EXPECT_EQ(alone.series_instance_uid, nema.series_instance_uid);
+  EXPECT_EQ(alone.patient_id, "1CT1");
+  for (const std::string& choice : {std::string("2"), nema.uid, nema.series_instance_uid}) {
+    SCOPED_TRACE(choice);
+    const ImageReadResult chosen = readImageFile(dir, ImageReadOptions{choice});
+    EXPECT_EQ(chosen.file_count, 1U);
+    EXPECT_EQ(chosen.series_uid, nema.uid);
+    EXPECT_EQ(chosen.series_instance_uid, nema.series_instance_uid);
+    EXPECT_EQ(chosen.study_date, "20040119");
+    expectSameGeometry(chosen.image, alone.image, 1e-12);
+    EXPECT_TRUE(chosen.image.data == alone.image.data);
+  }
+  try {
+    (void)readImageFile(dir, ImageReadOptions{"3"});
+    FAIL() << "a third series was read";
+  } catch (const InvalidArgumentError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("1: series (no number), CT \"CT Body 3.0\", 20 files"));
+    EXPECT_THAT(e.what(), HasSubstr("2: series 1, CT, 1 file"));
+  }
+}
+
+TEST(ImageIoDicomSeries, ASeriesChosenBySeriesInstanceUidAndAnMrSeriesBeside) {
+  MRSNS_REQUIRE_DATA(folder, "ct/totalsegmentator/example_ct_dicom");
+  MRSNS_REQUIRE_DATA(small, "ct/nema/CT_small.dcm");
+  MRSNS_REQUIRE_TOOL(gdcmanon, "gdcmanon");
+  // The shared series with a SeriesInstanceUID (and the SOP instance UIDs a writer needs) stamped into its
+  // headers, beside an MR series: the NEMA slice relabelled as MR Image Storage.
+  const auto dir = test::scratchDirectory("ct-and-mr");
+  const std::string ct_uid = "1.2.826.0.1.3680043.8.498.77001";
+  int n = 0;
+  for (const auto& f : dicomSliceFiles(folder)) {
+    ++n;
+    dicomRewrite(gdcmanon, f, dir / f.filename(),
+                 {"0020,000e=" + ct_uid, "0008,0016=1.2.840.10008.5.1.4.1.1.2",
+                  "0008,0018=" + ct_uid + "." + std::to_string(n), "0020,0011=7"});
+  }
+  const std::string mr_uid = "1.2.826.0.1.3680043.8.498.77002";
+  dicomRewrite(gdcmanon, small, dir / "mr.dcm",
+               {"0008,0060=MR", "0008,0016=1.2.840.10008.5.1.4.1.1.4", "0020,000e=" + mr_uid, "0008,103e=T1 axial",
+                "0020,0011=3"});
+  if (HasFailure()) return;
+  const std::vector<DicomSeriesInfo> series = listDicomSeries(dir);
+  ASSERT_EQ(series.size(), 2U);
+  EXPECT_EQ(series[0].series_instance_uid, ct_uid);
+  EXPECT_EQ(series[0].series_number, "7");
+  EXPECT_EQ(series[0].files, 20U);
+  EXPECT_EQ(series[1].modality, "MR");
+  EXPECT_EQ(series[1].description, "T1 axial");
+  EXPECT_EQ(series[1].series_instance_uid, mr_uid);
+
+  // The 20 slices by their uid, their SeriesInstanceUID and index 1: one volume, the shared series' voxels.
+  const ImageReadResult shared = readImageFile(folder);
+  const ImageReadResult by_uid = readImageFile(dir, ImageReadOptions{series[0].uid});
+  const ImageReadResult by_instance_uid = readImageFile(dir, ImageReadOptions{ct_uid});
+  const ImageReadResult by_index = readImageFile(dir, ImageReadOptions{"1"});
+  expectSameVolume(by_instance_uid, by_uid);
+  expectSameVolume(by_index, by_uid);
+  expectSameGeometry(by_uid.image, shared.image, 1e-12);
+  EXPECT_TRUE(by_uid.image.data == shared.image.data);
+  EXPECT_EQ(by_uid.modality, "CT");
+  EXPECT_EQ(by_uid.series_instance_uid, ct_uid);
+
+  // The MR series: recognisable, so a CT import can refuse it.
+  const ImageReadResult mr = readImageFile(dir, ImageReadOptions{mr_uid});
+  EXPECT_EQ(mr.modality, "MR");
+  EXPECT_EQ(mr.series_description, "T1 axial");
+  EXPECT_EQ(readImageFile(dir, ImageReadOptions{"2"}).modality, "MR");
+  EXPECT_EQ(readImageFile(dir / "mr.dcm").modality, "MR");
+  // The non-DICOM formats have none.
+  writeImage(by_uid.image, dir / "ct.nrrd");
+  EXPECT_EQ(readImageFile(dir / "ct.nrrd").modality, "");
+}
+
+TEST(ImageIoDicomPeer, Dcm2niixConversionHasTheSameGeometryAndEveryVoxel) {
+  // An independent, widely used converter (Chris Rorden's dcm2niix) as the reference for the series'
+  // geometry: its NIfTI, read back (RAS header -> LPS), must put every voxel of our DICOM read at the same
+  // LPS position with the same value. dcm2niix may reorder rows or slices, so compare in physical space.
+  MRSNS_REQUIRE_DATA(folder, "ct/totalsegmentator/example_ct_dicom");
+  MRSNS_REQUIRE_TOOL(dcm2niix, "dcm2niix");
+  const auto out = test::scratchDirectory("dcm2niix");
+  const auto run = test::runProgram(dcm2niix, {"-z", "n", "-b", "n", "-f", "%s", "-o", out.string(), folder.string()});
+  ASSERT_EQ(run.exit_code, 0) << run.out << run.err;
+  std::vector<std::filesystem::path> niftis;
+  for (const auto& entry : std::filesystem::directory_iterator(out)) {
+    if (entry.path().extension() == ".nii") niftis.push_back(entry.path());
+  }
+  ASSERT_EQ(niftis.size(), 1U) << "dcm2niix wrote " << niftis.size() << " NIfTI files: " << run.out;
+  const ImageVolume nifti = readImage(niftis.front());
+  const ImageVolume dicom = readImage(folder);
+
+  // Geometry: each NIfTI axis is a DICOM axis (up to its sign) with the same size and spacing. NIfTI stores
+  // the affine in float32: 1e-6 on unit direction cosines (exact 0/1 here), 1e-4 mm on spacings.
+  for (int a = 0; a < 3; ++a) {
+    SCOPED_TRACE("NIfTI axis " + std::to_string(a));
+    int match = -1;
+    for (int b = 0; b < 3; ++b) {
+      if (std::abs(nifti.direction.col(a).dot(dicom.direction.col(b))) > 1.0 - 1e-6) match = b;
+    }
+    ASSERT_GE(match, 0) << "no DICOM axis along " << nifti.direction.col(a).transpose();
+    const double sign = nifti.direction.col(a).dot(dicom.direction.col(match)) > 0 ? 1.0 : -1.0;
+    EXPECT_LT((nifti.direction.col(a) - sign * dicom.direction.col(match)).cwiseAbs().maxCoeff(), 1e-6);
+    EXPECT_EQ(nifti.size[static_cast<std::size_t>(a)], dicom.size[static_cast<std::size_t>(match)]);
+    EXPECT_NEAR(nifti.spacing[a], dicom.spacing[match], 1e-4);
+  }
+  // The NIfTI's first voxel is a corner voxel of the DICOM volume (float32 of ~800 mm: ~6e-5; 1e-3 mm).
+  const Eigen::Vector3d corner = dicom.physicalToIndex(nifti.origin);
+  const Eigen::Vector3d rounded = corner.array().round().matrix();
+  EXPECT_LT((dicom.indexToPhysical(rounded) - nifti.origin).norm(), 1e-3) << corner.transpose();
+  for (int a = 0; a < 3; ++a) {
+    EXPECT_TRUE(rounded[a] == 0.0 || rounded[a] == dicom.size[static_cast<std::size_t>(a)] - 1) << corner.transpose();
+  }
+  if (HasFailure()) return;
+
+  // Every voxel: the NIfTI voxel at the same LPS position holds the same value (HU; rescale applied by both).
+  std::size_t mismatches = 0, outside = 0;
+  double worst_offset = 0.0;
+  for (int k = 0; k < dicom.size[2]; ++k) {
+    for (int j = 0; j < dicom.size[1]; ++j) {
+      for (int i = 0; i < dicom.size[0]; ++i) {
+        const Eigen::Vector3d p = dicom.indexToPhysical(Eigen::Vector3d(i, j, k));
+        const Eigen::Vector3d q = nifti.physicalToIndex(p);
+        const Eigen::Vector3d r = q.array().round().matrix();
+        worst_offset = std::max(worst_offset, (q - r).cwiseAbs().maxCoeff());
+        const int ni = static_cast<int>(r.x()), nj = static_cast<int>(r.y()), nk = static_cast<int>(r.z());
+        if (!nifti.contains(ni, nj, nk)) {
+          ++outside;
+          continue;
+        }
+        if (nifti.value(ni, nj, nk) != dicom.value(i, j, k)) ++mismatches;
+      }
+    }
+  }
+  EXPECT_EQ(outside, 0U);
+  EXPECT_EQ(mismatches, 0U) << "of " << dicom.voxelCount() << " voxels";
+  // Within 1e-3 mm of a voxel centre, in voxels (spacing ~1 mm).
+  EXPECT_LT(worst_offset, 1e-3);
 }
 
 }  // namespace

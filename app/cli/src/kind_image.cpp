@@ -47,11 +47,41 @@ Report summarizeImage(const std::filesystem::path& path) {
     hi = std::max(hi, v);
   }
   j["value_range"] = {lo, hi};
+  std::vector<io::DicomSeriesInfo> series;
   if (read.format == io::ImageFormat::Dicom) {
     j["dicom_files"] = read.file_count;
     j["series_id"] = read.series_uid;
     if (read.series_in_folder > 0) j["series_in_folder"] = read.series_in_folder;
     j["slice_gap_deviation_mm"] = read.slice_gap_deviation_mm;
+    // What was read (never the patient's name).
+    j["modality"] = read.modality;
+    j["series_description"] = read.series_description;
+    j["series_instance_uid"] = read.series_instance_uid;
+    j["patient_id"] = read.patient_id;
+    j["study_date"] = read.study_date;
+    std::error_code ec;
+    if (std::filesystem::is_directory(path, ec)) {
+      // Every series of the folder, in the order whose 1-based index chooses one (the first, the largest, is
+      // the one read above); io::ImageReadOptions::dicom_series takes the index, uid or series_instance_uid.
+      series = io::listDicomSeries(path);
+      j["series"] = Json::array();
+      for (std::size_t i = 0; i < series.size(); ++i) {
+        const auto& s = series[i];
+        j["series"].push_back({{"index", i + 1},
+                               {"uid", s.uid},
+                               {"series_instance_uid", s.series_instance_uid},
+                               {"series_number", s.series_number},
+                               {"modality", s.modality},
+                               {"description", s.description},
+                               {"files", s.files},
+                               {"rows", s.rows},
+                               {"columns", s.columns},
+                               {"patient_id", s.patient_id},
+                               {"study_date", s.study_date},
+                               {"body_part", s.body_part},
+                               {"read", s.uid == read.series_uid}});
+      }
+    }
   }
   std::optional<std::vector<io::LabelCount>> labels;
   if (isIntegerPixelType(image.pixel_type) || image.pixel_type == PixelType::Float64 ||
@@ -79,7 +109,20 @@ Report summarizeImage(const std::filesystem::path& path) {
       << clean(image.direction(r, 2)) << "\n";
   }
   t << "  values: " << lo << " .. " << hi << "\n";
-  if (read.format == io::ImageFormat::Dicom) t << "  DICOM files: " << read.file_count << "\n";
+  if (read.format == io::ImageFormat::Dicom) {
+    t << "  DICOM files: " << read.file_count << ", modality " << (read.modality.empty() ? "(none)" : read.modality);
+    if (!read.series_description.empty()) t << ", \"" << read.series_description << "\"";
+    t << "\n";
+  }
+  if (series.size() > 1) {
+    t << "  series in the folder (the first is read; choose another by its index, uid or SeriesInstanceUID):\n";
+    for (std::size_t i = 0; i < series.size(); ++i) {
+      const auto& s = series[i];
+      t << "    " << i + 1 << ": series " << (s.series_number.empty() ? "-" : s.series_number) << ", "
+        << (s.modality.empty() ? "-" : s.modality) << (s.description.empty() ? "" : " \"" + s.description + "\"")
+        << ", " << s.files << (s.files == 1 ? " file, " : " files, ") << s.columns << " x " << s.rows << "\n";
+    }
+  }
   if (labels) {
     t << "  labels (" << labels->size() << "):";
     for (const auto& l : *labels) {

@@ -118,15 +118,112 @@ void toFloat64(ImageVolume& image) {
   image.pixel_type = PixelType::Float64;
 }
 
-ImageReadResult readDicomSeries(const std::filesystem::path& folder) {
-  const detail::DicomSeriesFiles series = detail::findDicomSeries(folder);
+DicomSeriesInfo seriesInfo(const detail::DicomSeriesFiles& s) {
+  DicomSeriesInfo info;
+  info.uid = s.uid;
+  info.series_instance_uid = s.tags.series_instance_uid;
+  info.description = s.tags.series_description;
+  info.modality = s.tags.modality;
+  info.series_number = s.tags.series_number;
+  info.files = s.files.size();
+  info.rows = s.tags.rows;
+  info.columns = s.tags.columns;
+  info.patient_id = s.tags.patient_id;
+  info.patient_name = s.tags.patient_name;
+  info.study_date = s.tags.study_date;
+  info.body_part = s.tags.body_part;
+  return info;
+}
+
+/// A series number as a number for sorting; none or not a number sorts last.
+long long seriesNumberKey(const std::string& number) {
+  if (number.empty() || !std::all_of(number.begin(), number.end(), [](unsigned char c) { return std::isdigit(c); }) ||
+      number.size() > 15) {
+    return std::numeric_limits<long long>::max();
+  }
+  return std::stoll(number);
+}
+
+/// The folder's series in listDicomSeries' order (largest first, then series number, then uid).
+std::vector<detail::DicomSeriesFiles> sortedDicomSeries(const std::filesystem::path& folder) {
+  std::vector<detail::DicomSeriesFiles> series = detail::findDicomSeries(folder);
+  std::sort(series.begin(), series.end(), [](const detail::DicomSeriesFiles& a, const detail::DicomSeriesFiles& b) {
+    if (a.files.size() != b.files.size()) return a.files.size() > b.files.size();
+    const long long na = seriesNumberKey(a.tags.series_number), nb = seriesNumberKey(b.tags.series_number);
+    if (na != nb) return na < nb;
+    return a.uid < b.uid;
+  });
+  return series;
+}
+
+/// "1: series 2, CT "CT Body 3.0", 20 files; 2: ..." for messages (no patient data).
+std::string seriesListing(const std::vector<detail::DicomSeriesFiles>& series) {
+  std::string text;
+  for (std::size_t i = 0; i < series.size(); ++i) {
+    const auto& t = series[i].tags;
+    if (!text.empty()) text += "; ";
+    text += std::to_string(i + 1) + ": series " + (t.series_number.empty() ? "(no number)" : t.series_number) + ", " +
+            (t.modality.empty() ? "no modality" : t.modality) +
+            (t.series_description.empty() ? "" : " \"" + t.series_description + "\"") + ", " +
+            std::to_string(series[i].files.size()) + (series[i].files.size() == 1 ? " file" : " files");
+  }
+  return text;
+}
+
+/// The index in `series` that `choice` names (see ImageReadOptions::dicom_series).
+std::size_t chooseDicomSeries(const std::vector<detail::DicomSeriesFiles>& series, std::string choice,
+                              const std::filesystem::path& folder) {
+  // A value pasted from a listing may carry spaces (or DICOM's padding).
+  const auto keep = [](unsigned char c) { return c != '\0' && !std::isspace(c); };
+  choice.erase(std::find_if(choice.rbegin(), choice.rend(), keep).base(), choice.end());
+  choice.erase(choice.begin(), std::find_if(choice.begin(), choice.end(), keep));
+  if (choice.empty()) return 0;
+  for (std::size_t i = 0; i < series.size(); ++i) {
+    if (series[i].uid == choice) return i;
+  }
+  std::vector<std::size_t> by_instance_uid;
+  for (std::size_t i = 0; i < series.size(); ++i) {
+    if (series[i].tags.series_instance_uid == choice) by_instance_uid.push_back(i);
+  }
+  const std::string how = "; choose one by its index (1 to " + std::to_string(series.size()) +
+                          "), uid or SeriesInstanceUID, as `mrsns-cli info FOLDER --json` lists them";
+  if (by_instance_uid.size() == 1) return by_instance_uid.front();
+  if (by_instance_uid.size() > 1) {
+    throw InvalidArgumentError("DICOM folder " + quoted(folder) + ": SeriesInstanceUID '" + choice + "' holds " +
+                               std::to_string(by_instance_uid.size()) +
+                               " series of different image sizes or numbers (" + seriesListing(series) + ")" + how);
+  }
+  const bool digits =
+      choice.size() <= 9 && std::all_of(choice.begin(), choice.end(), [](unsigned char c) { return std::isdigit(c); });
+  if (digits) {
+    const auto index = static_cast<std::size_t>(std::stoul(choice));
+    if (index >= 1 && index <= series.size()) return index - 1;
+  }
+  throw InvalidArgumentError("DICOM folder " + quoted(folder) + " has no series '" + choice + "'; it holds " +
+                             std::to_string(series.size()) + ": " + seriesListing(series) + how);
+}
+
+ImageReadResult readDicomSeries(const std::filesystem::path& folder, const std::string& choice) {
+  const std::vector<detail::DicomSeriesFiles> all = sortedDicomSeries(folder);
+  if (all.empty()) {
+    throw FormatError("folder " + quoted(folder) +
+                      " holds no DICOM image series: choose the folder that holds the series' files");
+  }
+  const detail::DicomSeriesFiles& series = all[chooseDicomSeries(all, choice, folder)];
   ImageReadResult result;
   result.format = ImageFormat::Dicom;
-  result.series_in_folder = series.series_count;
-  result.series_uid = series.series_uid;
-  if (series.series_count > 1) {
-    logger()->warn("folder '{}' holds {} DICOM series; reading the largest ({} files)", folder.string(),
-                   series.series_count, series.files.size());
+  result.series_in_folder = all.size();
+  result.series_uid = series.uid;
+  result.modality = series.tags.modality;
+  result.series_description = series.tags.series_description;
+  result.series_instance_uid = series.tags.series_instance_uid;
+  result.patient_id = series.tags.patient_id;
+  result.study_date = series.tags.study_date;
+  if (all.size() > 1 && choice.empty()) {
+    logger()->warn(
+        "folder '{}' holds {} DICOM series ({}); reading 1, the largest; choose another by its index, uid "
+        "or SeriesInstanceUID",
+        folder.string(), all.size(), seriesListing(all));
   }
   std::vector<ImageVolume> slices;
   slices.reserve(series.files.size());
@@ -215,13 +312,34 @@ ImageFormat imageFormatFromPath(const std::filesystem::path& path) {
                          "DICOM series folder");
 }
 
+std::vector<DicomSeriesInfo> listDicomSeries(const std::filesystem::path& folder) {
+  std::error_code ec;
+  if (!std::filesystem::is_directory(folder, ec)) {
+    throw FileError("DICOM folder " + quoted(folder) +
+                    (std::filesystem::exists(folder, ec) ? " is a file, not a folder: give the folder that holds it"
+                                                         : " does not exist: check the path"));
+  }
+  std::vector<DicomSeriesInfo> out;
+  for (const auto& s : sortedDicomSeries(folder)) out.push_back(seriesInfo(s));
+  return out;
+}
+
 ImageReadResult readImageFile(const std::filesystem::path& path) {
+  return readImageFile(path, ImageReadOptions{});
+}
+
+ImageReadResult readImageFile(const std::filesystem::path& path, const ImageReadOptions& options) {
   std::error_code ec;
   if (!std::filesystem::exists(path, ec)) {
     throw FileError("image " + quoted(path) + " does not exist: check the path");
   }
   const ImageFormat format = imageFormatFromPath(path);
-  if (std::filesystem::is_directory(path, ec)) return readDicomSeries(path);
+  if (std::filesystem::is_directory(path, ec)) return readDicomSeries(path, options.dicom_series);
+  if (!options.dicom_series.empty()) {
+    throw InvalidArgumentError("image " + quoted(path) + " is a single " + imageFormatName(format) +
+                               " file, not a DICOM folder: a series ('" + options.dicom_series +
+                               "') can only be chosen in a folder; give the folder, or no series");
+  }
   {
     std::ifstream probe(path, std::ios::binary);
     if (!probe) throw FileError("cannot open image " + quoted(path) + ": check its permissions");
@@ -248,6 +366,14 @@ ImageReadResult readImageFile(const std::filesystem::path& path) {
       }
     } cleanup{repaired->path};
     result.image = fromRaw(detail::readRawImage(rawFormat(format), repaired->path), path);
+  }
+  if (format == ImageFormat::Dicom) {
+    const detail::DicomTags tags = detail::readDicomTags(path);
+    result.modality = tags.modality;
+    result.series_description = tags.series_description;
+    result.series_instance_uid = tags.series_instance_uid;
+    result.patient_id = tags.patient_id;
+    result.study_date = tags.study_date;
   }
   return result;
 }

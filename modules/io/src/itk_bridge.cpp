@@ -3,6 +3,9 @@
 // headers here (see itk_bridge.h for why).
 #include "itk_bridge.h"
 
+#include <gdcmReader.h>
+#include <gdcmStringFilter.h>
+#include <gdcmTag.h>
 #include <gdcmTrace.h>
 #include <itkAffineTransform.h>
 #include <itkCompositeTransform.h>
@@ -28,6 +31,7 @@
 #include <cctype>
 #include <limits>
 #include <mutex>
+#include <set>
 
 #include "io_text.h"
 #include "mrsns/core/error.h"
@@ -217,26 +221,71 @@ void writeRawImage(const RawImage& image, const std::vector<std::byte>& data, Ra
   }
 }
 
-DicomSeriesFiles findDicomSeries(const std::filesystem::path& folder) {
+DicomTags readDicomTags(const std::filesystem::path& file) {
   initializeItk();
-  DicomSeriesFiles result;
+  const gdcm::Tag series_uid(0x0020, 0x000e), description(0x0008, 0x103e), modality(0x0008, 0x0060),
+      number(0x0020, 0x0011), rows(0x0028, 0x0010), columns(0x0028, 0x0011), patient_id(0x0010, 0x0020),
+      patient_name(0x0010, 0x0010), study_date(0x0008, 0x0020), body_part(0x0018, 0x0015);
+  gdcm::Reader reader;
+  reader.SetFileName(file.string().c_str());
+  // The header only, up to the largest tag wanted: never the pixel data.
+  const std::set<gdcm::Tag> wanted = {series_uid, description, modality,     number,     rows,
+                                      columns,    patient_id,  patient_name, study_date, body_part};
+  if (!reader.ReadSelectedTags(wanted)) {
+    throw FormatError("DICOM file " + quoted(file) + " could not be read: it is not a DICOM file or it is damaged");
+  }
+  gdcm::StringFilter filter;
+  filter.SetFile(reader.GetFile());
+  const gdcm::DataSet& data = reader.GetFile().GetDataSet();
+  auto text = [&](const gdcm::Tag& tag) -> std::string {
+    if (!data.FindDataElement(tag) || data.GetDataElement(tag).IsEmpty()) return {};
+    std::string value = filter.ToString(tag);
+    // DICOM pads to an even length with spaces (UI with NUL).
+    const auto keep = [](char c) { return c != '\0' && !std::isspace(static_cast<unsigned char>(c)); };
+    value.erase(std::find_if(value.rbegin(), value.rend(), keep).base(), value.end());
+    value.erase(value.begin(), std::find_if(value.begin(), value.end(), keep));
+    return value;
+  };
+  auto integer = [&](const gdcm::Tag& tag) {
+    const std::string value = text(tag);
+    try {
+      return value.empty() ? 0 : std::stoi(value);
+    } catch (const std::exception&) {
+      return 0;  // a malformed count is reported as absent; the image reader checks the real size
+    }
+  };
+  DicomTags tags;
+  tags.series_instance_uid = text(series_uid);
+  tags.series_description = text(description);
+  tags.modality = text(modality);
+  tags.series_number = text(number);
+  tags.rows = integer(rows);
+  tags.columns = integer(columns);
+  tags.patient_id = text(patient_id);
+  tags.patient_name = text(patient_name);
+  tags.study_date = text(study_date);
+  tags.body_part = text(body_part);
+  return tags;
+}
+
+std::vector<DicomSeriesFiles> findDicomSeries(const std::filesystem::path& folder) {
+  initializeItk();
+  std::vector<DicomSeriesFiles> result;
   try {
     auto names = itk::GDCMSeriesFileNames::New();
     names->SetUseSeriesDetails(true);
     names->SetDirectory(folder.string());
-    const auto& uids = names->GetSeriesUIDs();
-    result.series_count = uids.size();
-    for (const auto& uid : uids) {
-      auto candidate = names->GetFileNames(uid);
-      if (candidate.size() > result.files.size()) {
-        result.files = std::move(candidate);
-        result.series_uid = uid;
-      }
+    for (const auto& uid : names->GetSeriesUIDs()) {
+      DicomSeriesFiles series;
+      series.uid = uid;
+      series.files = names->GetFileNames(uid);
+      if (series.files.empty()) continue;
+      result.push_back(std::move(series));
     }
   } catch (const itk::ExceptionObject& e) {
     throw FormatError("DICOM folder " + quoted(folder) + " could not be scanned: " + itkMessage(e));
   }
-  if (result.files.empty()) throw FormatError("folder " + quoted(folder) + " holds no DICOM image series");
+  for (auto& series : result) series.tags = readDicomTags(series.files.front());
   return result;
 }
 

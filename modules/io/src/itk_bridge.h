@@ -37,14 +37,34 @@ RawImage readRawImage(RawImageFormat format, const std::filesystem::path& path);
 void writeRawImage(const RawImage& header, const std::vector<std::byte>& data, RawImageFormat format,
                    const std::filesystem::path& path, bool compress);
 
-struct DicomSeriesFiles {
-  std::size_t series_count = 0;
-  std::string series_uid;          ///< of the largest series
-  std::vector<std::string> files;  ///< of the largest series
+/// Tags of one DICOM file as text, DICOM padding trimmed; empty (0) when absent.
+struct DicomTags {
+  std::string series_instance_uid;  ///< 0020|000e
+  std::string series_description;   ///< 0008|103e
+  std::string modality;             ///< 0008|0060
+  std::string series_number;        ///< 0020|0011
+  int rows = 0;                     ///< 0028|0010
+  int columns = 0;                  ///< 0028|0011
+  std::string patient_id;           ///< 0010|0020
+  std::string patient_name;         ///< 0010|0010
+  std::string study_date;           ///< 0008|0020
+  std::string body_part;            ///< 0018|0015
 };
 
-/// The DICOM series in a folder (the largest one's files). Throws FormatError when there is none.
-DicomSeriesFiles findDicomSeries(const std::filesystem::path& folder);
+/// One series of a folder as GDCM groups it.
+struct DicomSeriesFiles {
+  std::string uid;                 ///< ITK's series id (SeriesInstanceUID + series details)
+  std::vector<std::string> files;  ///< in GDCM's order (by image position)
+  DicomTags tags;                  ///< of its first file
+};
+
+/// Every DICOM series in a folder (not its subfolders), in GDCM's order;
+/// empty when there is none. Throws FormatError when the scan fails.
+std::vector<DicomSeriesFiles> findDicomSeries(const std::filesystem::path& folder);
+
+/// The tags of one DICOM file (its header only, any SOP class: images, SR
+/// reports). Throws FormatError naming the file when it is not DICOM.
+DicomTags readDicomTags(const std::filesystem::path& file);
 
 /// One ITK transform as stored in a file.
 struct RawTransform {
