@@ -2,14 +2,17 @@
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <numeric>
+#include <optional>
 #include <random>
 #include <sstream>
 
 #include "mrsns/core/error.h"
 #include "mrsns/core/log.h"
 #include "mrsns/core/mesh_locator.h"
+#include "mrsns/registration/label_meshing.h"
 
 namespace mrsns::registration {
 namespace {
@@ -93,6 +96,49 @@ Clustering lloyd(const PointsN3& x, PointsN3 c, int max_iterations) {
   return out;
 }
 
+/// Where the axis c + t * axis meets the bone surface around the screw: a quadric height field
+/// w = a + b u + c v + d u^2 + e u v + f v^2 (w along the axis) fitted to the bone vertices at radial distance
+/// [radius + 1, radius + 1 + ring_width] from the axis and within the screw's axial extent (grown by the ring's
+/// width), evaluated on the axis. Exact for a locally quadratic surface, whatever hole the screw left in it.
+std::optional<Eigen::Vector3d> entryFromSurroundingSurface(const TriangleMesh& bone, const PointsN3& bone_normals,
+                                                           const Eigen::Vector3d& c, const Eigen::Vector3d& axis,
+                                                           double t_lo, double t_hi, double radius,
+                                                           const FiducialsFromMeshOptions& options) {
+  const Eigen::Vector3d helper = std::abs(axis.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
+  const Eigen::Vector3d u = axis.cross(helper).normalized();
+  const Eigen::Vector3d v = axis.cross(u);
+  const double r_in = radius + 1.0, r_out = r_in + options.ring_width_mm;
+  std::vector<Eigen::Matrix<double, 6, 1>> rows;
+  std::vector<double> heights;
+  for (Eigen::Index i = 0; i < bone.vertices.rows(); ++i) {
+    const Eigen::Vector3d d = bone.vertices.row(i).transpose() - c;
+    const double w = axis.dot(d);
+    if (w < t_lo - options.ring_width_mm || w > t_hi + options.ring_width_mm) continue;
+    const double x = u.dot(d), y = v.dot(d);
+    const double r = std::hypot(x, y);
+    if (r < r_in || r > r_out) continue;
+    // Only the cortex the screw enters faces its head: the far side of a thin lamina, or the wall of the tunnel
+    // the screw left in the segmentation, face elsewhere.
+    if (bone_normals.row(i).dot(axis.transpose()) < 0.3) continue;
+    Eigen::Matrix<double, 6, 1> row;
+    row << 1.0, x, y, x * x, x * y, y * y;
+    rows.push_back(row);
+    heights.push_back(w);
+  }
+  if (rows.size() < 12) return std::nullopt;
+  Eigen::MatrixXd a(static_cast<Eigen::Index>(rows.size()), 6);
+  Eigen::VectorXd b(static_cast<Eigen::Index>(rows.size()));
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    a.row(static_cast<Eigen::Index>(i)) = rows[i].transpose();
+    b(static_cast<Eigen::Index>(i)) = heights[i];
+  }
+  const Eigen::VectorXd q = a.colPivHouseholderQr().solve(b);
+  // A surface that is not a single sheet around the screw (two cortices, a fold) fits badly: no estimate then.
+  const double rms = std::sqrt((a * q - b).squaredNorm() / static_cast<double>(rows.size()));
+  if (!std::isfinite(q(0)) || rms > 0.5 * options.ring_width_mm) return std::nullopt;
+  return c + q(0) * axis;
+}
+
 }  // namespace
 
 KMeansResult kMeans(const PointsN3& points, int k, const KMeansOptions& options) {
@@ -157,6 +203,8 @@ FiducialsFromMeshResult findFiducialsFromMeshes(const TriangleMesh& screws, cons
                                " vertices: give the number of screws (>= 1)");
   }
   const MeshLocator locator(bone);
+  const PointsN3 bone_normals =
+      options.entry_from_surrounding_surface ? vertexNormals(bone) : PointsN3(PointsN3::Zero(0, 3));
   FiducialsFromMeshResult result;
   result.clusters = kMeans(screws.vertices, count, options.kmeans);
   const double mean_size = static_cast<double>(screws.vertexCount()) / count;
@@ -217,7 +265,24 @@ FiducialsFromMeshResult findFiducialsFromMeshes(const TriangleMesh& screws, cons
       }
     }
     f.axis_hits_bone = best_gap <= options.max_hit_distance_mm;
+    if (options.entry_from_surrounding_surface) {
+      double radius = 0.0;
+      for (auto i : members) {
+        const Eigen::Vector3d d = screws.vertices.row(i).transpose() - c;
+        radius = std::max(radius, (d - axis.dot(d) * axis).norm());
+      }
+      if (const auto around = entryFromSurroundingSurface(bone, bone_normals, c, axis, t_lo, t_hi, radius, options)) {
+        const double disagreement = f.axis_hits_bone ? (f.position - *around).norm() : 1e300;
+        if (disagreement > options.surface_agreement_mm) {
+          f.position = *around;
+          f.entry_from = "surrounding surface";
+          f.axis_hits_bone = true;
+          best_gap = std::max(0.0, std::max(t_lo - axis.dot(*around - c), axis.dot(*around - c) - t_hi));
+        }
+      }
+    }
     if (!f.axis_hits_bone) {
+      f.entry_from = "head";
       f.position = f.head_point;
       f.hit_distance_mm = std::isfinite(best_gap) ? best_gap : std::numeric_limits<double>::quiet_NaN();
       logger()->warn("find fiducials: the axis of {} misses the bone within {} mm; using the screw-head end point",
@@ -230,6 +295,86 @@ FiducialsFromMeshResult findFiducialsFromMeshes(const TriangleMesh& screws, cons
     f.confidence = f.size_balance * elongation_score * hit_score;
     result.fiducials.push_back(f);
   }
+  return result;
+}
+
+namespace {
+
+/// Sizes of the 26-connected regions of the non-zero voxels of `mask`.
+std::vector<std::size_t> maskRegions(const ImageVolume& mask) {
+  std::vector<char> seen(mask.voxelCount(), 0);
+  std::vector<std::size_t> sizes;
+  std::vector<std::array<int, 3>> stack;
+  for (int k = 0; k < mask.size[2]; ++k) {
+    for (int j = 0; j < mask.size[1]; ++j) {
+      for (int i = 0; i < mask.size[0]; ++i) {
+        const auto start = mask.linearIndex(i, j, k);
+        if (seen[start] || mask.valueAtIndex(start) == 0.0) continue;
+        seen[start] = 1;
+        stack.push_back({i, j, k});
+        std::size_t voxels = 0;
+        while (!stack.empty()) {
+          const auto [x, y, z] = stack.back();
+          stack.pop_back();
+          ++voxels;
+          for (int dz = -1; dz <= 1; ++dz) {
+            for (int dy = -1; dy <= 1; ++dy) {
+              for (int dx = -1; dx <= 1; ++dx) {
+                if (!mask.contains(x + dx, y + dy, z + dz)) continue;
+                const auto q = mask.linearIndex(x + dx, y + dy, z + dz);
+                if (seen[q] || mask.valueAtIndex(q) == 0.0) continue;
+                seen[q] = 1;
+                stack.push_back({x + dx, y + dy, z + dz});
+              }
+            }
+          }
+        }
+        sizes.push_back(voxels);
+      }
+    }
+  }
+  std::sort(sizes.rbegin(), sizes.rend());
+  return sizes;
+}
+
+}  // namespace
+
+FiducialScrewsInMaskResult findFiducialScrewsInMask(const ImageVolume& mask, const TriangleMesh& bone,
+                                                    const FiducialScrewsInMaskOptions& options) {
+  if (mask.empty() || mask.data.size() != mask.byteCount()) {
+    throw InvalidArgumentError("find fiducials: the screw mask is empty or inconsistent");
+  }
+  if (options.count < 0) throw InvalidArgumentError("find fiducials: the screw count must be >= 0 (0 = one per region)");
+  FiducialScrewsInMaskResult result;
+  for (const auto size : maskRegions(mask)) {
+    if (size >= options.min_voxels) result.region_voxels.push_back(size);
+  }
+  result.regions = static_cast<int>(result.region_voxels.size());
+  if (result.regions == 0) {
+    throw ComputationError("find fiducials: the mask holds no region of at least " +
+                           std::to_string(options.min_voxels) + " voxels: there is no screw to find there");
+  }
+  const int count = options.count > 0 ? options.count : result.regions;
+  if (count > result.regions) {
+    throw ComputationError("find fiducials: " + std::to_string(count) + " screws asked for, but the mask holds " +
+                           std::to_string(result.regions) + " separate region(s): screws that touch merge into one "
+                           "region; give count= the number of screws only if some touch");
+  }
+  LabelMeshOptions mesh_options;
+  mesh_options.smoothing_iterations = 0;  // a 2 mm shaft is a few voxels wide: smoothing would shrink it away
+  mesh_options.scheme = LabelScheme::Generic;
+  ImageVolume binary = mask;
+  if (binary.pixel_type != PixelType::UInt8) {
+    binary.pixel_type = PixelType::UInt8;
+    binary.data.assign(mask.voxelCount(), std::byte{0});
+    for (std::size_t i = 0; i < mask.voxelCount(); ++i) {
+      if (mask.valueAtIndex(i) != 0.0) binary.data[i] = std::byte{1};
+    }
+  } else {
+    for (auto& b : binary.data) b = b == std::byte{0} ? std::byte{0} : std::byte{1};
+  }
+  const auto screws = meshLabelMap(binary, mesh_options);
+  result.found = findFiducialsFromMeshes(screws.meshes.at(0).mesh, bone, count, options.mesh);
   return result;
 }
 

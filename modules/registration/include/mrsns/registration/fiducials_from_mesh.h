@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "mrsns/core/image.h"
 #include "mrsns/core/landmarks.h"
 #include "mrsns/core/mesh.h"
 #include "mrsns/core/mesh_ops.h"
@@ -44,6 +45,17 @@ struct FiducialsFromMeshOptions {
   /// Elongation (sqrt of the first over the second eigenvalue) at which the
   /// axis counts as fully trustworthy.
   double good_elongation = 2.0;
+  /// Also estimate where the axis meets the bone from the bone surface
+  /// around the screw (a quadric fitted to the bone vertices in a ring
+  /// `ring_width_mm` wide just outside the screw's radius), and use that
+  /// estimate when the axis's own crossing lies more than
+  /// `surface_agreement_mm` from it. A bone segmented with the screw as a
+  /// separate label has a tunnel where the screw sits: the axis then crosses
+  /// the bone only at the tunnel's bottom, the screw's tip, not where it
+  /// enters the bone.
+  bool entry_from_surrounding_surface = false;
+  double ring_width_mm = 4.0;
+  double surface_agreement_mm = 1.0;
 };
 
 struct DetectedFiducial {
@@ -63,6 +75,9 @@ struct DetectedFiducial {
   /// Distance along the axis from the cluster's extent to the bone hit (0 inside the extent); NaN without a hit.
   double hit_distance_mm = 0.0;
   bool axis_hits_bone = false;
+  /// "axis" (the axis's crossing with the bone), "surrounding surface" (the
+  /// quadric fitted around the screw) or "head" (neither: the head's end point).
+  std::string entry_from = "axis";
   /// Product of the three scores above, in [0, 1].
   double confidence = 0.0;
 };
@@ -77,6 +92,31 @@ struct FiducialsFromMeshResult {
 /// invalid meshes, count < 1 or count larger than the screw vertex count.
 FiducialsFromMeshResult findFiducialsFromMeshes(const TriangleMesh& screws, const TriangleMesh& bone, int count,
                                                 const FiducialsFromMeshOptions& options = {});
+
+struct FiducialScrewsInMaskOptions {
+  /// Screws to find; 0: one per connected region of the mask (26-neighbour).
+  int count = 0;
+  /// Regions smaller than this are noise, not screws (partial-volume specks).
+  std::size_t min_voxels = 4;
+  FiducialsFromMeshOptions mesh{.kmeans = {}, .max_hit_distance_mm = 10.0, .good_elongation = 2.0,
+                                .entry_from_surrounding_surface = true, .ring_width_mm = 3.0,
+                                .surface_agreement_mm = 1.0};
+};
+
+struct FiducialScrewsInMaskResult {
+  FiducialsFromMeshResult found;
+  int regions = 0;                         ///< connected regions of at least min_voxels
+  std::vector<std::size_t> region_voxels;  ///< their sizes, largest first
+};
+
+/// Fiducial screws in a binary mask on an image's grid (a screw or marker
+/// label, or metal above a threshold in the CT): its connected regions
+/// counted, the mask meshed without smoothing, one cluster per screw, and
+/// each landmark where the screw's axis meets `bone`. Throws
+/// InvalidArgumentError for an empty mask or bone, ComputationError when the
+/// mask has fewer regions than `count` asks for, or none.
+FiducialScrewsInMaskResult findFiducialScrewsInMask(const ImageVolume& mask, const TriangleMesh& bone,
+                                                    const FiducialScrewsInMaskOptions& options = {});
 
 /// The fiducials as landmarks "F-1".. with confidence in the description; frame from `frame`.
 LandmarkSet fiducialLandmarks(const FiducialsFromMeshResult& result, const std::string& frame = {});

@@ -58,6 +58,14 @@ struct LabelMeshingResult {
 /// or non-integer image or a requested label that has no voxel.
 [[nodiscard]] LabelMeshingResult meshLabelMap(const ImageVolume& label_map, const LabelMeshOptions& options = {});
 
+/// A copy of `mesh` with at most `target_triangles` triangles, for the
+/// headset and interactive views: quadric decimation with volume
+/// preservation, or DecimatePro with its topology kept when quadric
+/// decimation would open a closed surface. A mesh already that small comes
+/// back unchanged. Normals are recomputed, the first vertex's colour kept.
+/// Throws InvalidArgumentError for an invalid mesh or a target below 4.
+[[nodiscard]] TriangleMesh decimateMesh(const TriangleMesh& mesh, std::size_t target_triangles);
+
 /// Distinct non-zero integer labels of a label map with their voxel counts
 /// (ascending). Throws InvalidArgumentError if a voxel is not an integer.
 [[nodiscard]] std::map<int, std::size_t> labelVoxelCounts(const ImageVolume& label_map);
