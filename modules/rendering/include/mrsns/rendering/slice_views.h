@@ -7,6 +7,9 @@
 #include <array>
 #include <filesystem>
 #include <memory>
+#include <optional>
+#include <string>
+#include <vector>
 
 #include "mrsns/core/image.h"
 
@@ -19,6 +22,53 @@ namespace mrsns::rendering {
 /// left, superior up), coronal (normal y, patient's left on the right,
 /// superior up): the radiological convention.
 enum class SliceOrientation { Axial = 0, Sagittal = 1, Coronal = 2 };
+
+/// The unit normal of a view's plane (its direction of projection, LPS).
+[[nodiscard]] Eigen::Vector3d sliceNormal(SliceOrientation view);
+
+/// A named window/level for CT in Hounsfield units.
+struct WindowLevelPreset {
+  std::string name;
+  double window = 400.0;
+  double level = 40.0;
+};
+
+/// 3D Slicer's CT presets: bone (1000/400), soft tissue (400/40), lung
+/// (1400/-500), brain (100/50).
+[[nodiscard]] std::vector<WindowLevelPreset> ctWindowLevelPresets();
+
+/// A planned screw drawn on the slices: its outline (the screw's diameter
+/// around its axis) projected on each plane, and a handle at each end.
+struct SliceScrew {
+  std::string name;
+  Eigen::Vector3d entry = Eigen::Vector3d::Zero();  ///< LPS mm
+  Eigen::Vector3d tip = Eigen::Vector3d::Zero();    ///< LPS mm, entry + length * direction
+  double diameter_mm = 3.5;
+  Eigen::Vector3d rgb = Eigen::Vector3d(0.2, 0.9, 0.3);
+  bool selected = false;
+};
+
+enum class ScrewEnd { Entry, Tip };
+
+/// The screw end under the pointer.
+struct ScrewHandle {
+  std::size_t screw = 0;  ///< index into the screws given to setScrews
+  ScrewEnd end = ScrewEnd::Entry;
+  double distance_px = 0.0;
+};
+
+/// A point drawn on the slices as a cross (a fiducial, a picked point).
+struct SliceMarker {
+  std::string label;
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();  ///< LPS mm
+  Eigen::Vector3d rgb = Eigen::Vector3d(0.3, 0.8, 1.0);
+};
+
+/// The two views resliced along a screw: inline (a plane holding the screw's
+/// axis and, as near as it can, the patient's superior axis; entry at the
+/// top) and probe's eye (the plane across the axis at a depth, seen from
+/// the entry).
+enum class TrajectoryView { Inline = 0, ProbeEye = 1 };
 
 class SliceViews {
  public:
@@ -33,10 +83,44 @@ class SliceViews {
   /// data size does not match its size and pixel type.
   void setVolume(const ImageVolume& ct);
   [[nodiscard]] bool hasVolume() const;
+  /// Removes the CT (another session without one is shown).
+  void clearVolume();
 
   /// The point (LPS mm) all three planes pass through.
   void setCursor(const Eigen::Vector3d& p_lps);
   [[nodiscard]] Eigen::Vector3d cursor() const;
+  /// Moves the cursor along `view`'s normal by `steps` voxels (the CT's
+  /// spacing along that normal), kept inside the volume: scrolling a view.
+  void scroll(SliceOrientation view, int steps);
+  /// The crosshair: each view shows where the other two planes cut it.
+  void setCrosshairVisible(bool visible);
+  [[nodiscard]] bool crosshairVisible() const;
+
+  /// The point of `view`'s plane under display position (x, y) of its render
+  /// window (VTK display pixels: origin at the bottom left); nullopt when the
+  /// view is not in a window yet.
+  [[nodiscard]] std::optional<Eigen::Vector3d> pointAt(SliceOrientation view, double x, double y) const;
+  /// Where an LPS point projects in `view`'s window (display pixels), nullopt without a window.
+  [[nodiscard]] std::optional<Eigen::Vector2d> displayPoint(SliceOrientation view, const Eigen::Vector3d& p_lps) const;
+
+  /// The planned screws (replacing any given before).
+  void setScrews(const std::vector<SliceScrew>& screws);
+  [[nodiscard]] const std::vector<SliceScrew>& screws() const;
+  /// The screw end nearest to display position (x, y) in `view` within
+  /// `tolerance_px`, if any.
+  [[nodiscard]] std::optional<ScrewHandle> handleAt(SliceOrientation view, double x, double y,
+                                                    double tolerance_px = 8.0) const;
+  /// Points drawn as crosses (replacing any given before); the ones within
+  /// half a voxel of a view's plane are drawn larger.
+  void setMarkers(const std::vector<SliceMarker>& markers);
+
+  /// Reslices along the screw from `entry` to `tip` (LPS mm): the inline view
+  /// centred on the screw, the probe's-eye view across it `depth_mm` from the
+  /// entry. Throws InvalidArgumentError for a degenerate screw.
+  void setTrajectory(const Eigen::Vector3d& entry, const Eigen::Vector3d& tip, double diameter_mm, double depth_mm);
+  void clearTrajectory();
+  [[nodiscard]] bool hasTrajectory() const;
+  [[nodiscard]] vtkRenderer* trajectoryRenderer(TrajectoryView view) const;
 
   /// Grey levels: `window` wide around `level` (HU). Throws
   /// InvalidArgumentError for a window <= 0 or non-finite values.
@@ -72,5 +156,10 @@ class SliceViews {
 /// Renders the three views side by side (axial, sagittal, coronal, each
 /// width/3 wide) offscreen into an RGB PNG. Throws like snapshotPng.
 void snapshotSlicesPng(SliceViews& views, const std::filesystem::path& png, int width, int height);
+
+/// Renders the trajectory views side by side (inline, probe's eye) offscreen
+/// into an RGB PNG. Throws like snapshotPng, and InvalidArgumentError without
+/// a trajectory.
+void snapshotTrajectoryPng(SliceViews& views, const std::filesystem::path& png, int width, int height);
 
 }  // namespace mrsns::rendering
