@@ -36,7 +36,7 @@ TEST(CliSession, CreateRunInfoRoundTrip) {
     }
   }
   EXPECT_TRUE(found);
-  EXPECT_EQ(info["steps"].size(), 15u) << "every workflow step, run or not";
+  EXPECT_EQ(info["steps"].size(), 26u) << "every workflow step, run or not";
 }
 
 TEST(CliSession, SampleSessionAndStepList) {
@@ -49,10 +49,12 @@ TEST(CliSession, SampleSessionAndStepList) {
   r = runCli({"session", "steps", "--json"});
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const auto steps = nlohmann::json::parse(r.out)["steps"];
-  ASSERT_EQ(steps.size(), 15u);
-  EXPECT_EQ(steps[11]["name"], "checkerboard-digitisation") << "the board digitised before the camera uses it";
-  EXPECT_EQ(steps[12]["name"], "hmd-camera-calibration");
-  EXPECT_EQ(steps[1]["name"], "pivot-calibration") << "the tools are calibrated before anything uses them";
+  ASSERT_EQ(steps.size(), 26u);
+  EXPECT_EQ(steps[0]["name"], "import-ct") << "the patient's data come first";
+  EXPECT_EQ(steps[0]["group"], "data");
+  EXPECT_EQ(steps[22]["name"], "checkerboard-digitisation") << "the board digitised before the camera uses it";
+  EXPECT_EQ(steps[23]["name"], "hmd-camera-calibration");
+  EXPECT_EQ(steps[12]["name"], "pivot-calibration") << "the tools are calibrated before anything uses them";
 }
 
 TEST(CliSession, ErrorsAreOneLineWithExitCodes) {

@@ -64,16 +64,20 @@ RegistrationRun runRegistration(const std::string& name, int seed, const std::st
   RegistrationRun run;
   const auto session = dir / "session";
   const auto truth = dir / "truth.json";
+  // The patient's data are in the session before the room's timeline starts, as in a case: the phantom's CT,
+  // its segmentation and plan imported, its models made and its fiducials found in the CT.
+  EXPECT_EQ(runCli({"session", "create", session.string()}).exit_code, 0);
+  const auto prepared =
+      runCli({"session", "run", session.string(), "import-phantom", "--param", "spacing_mm=1.2", "--json"});
+  EXPECT_EQ(prepared.exit_code, 0) << prepared.err;
   SimProcess sim({"run", "--scenario", writeRegistrationScenario(dir, seed, misplaced).string(), "--truth", truth.string(),
                   "--ready-file", (dir / "ready.json").string(), "--any-ports", "--json"});
   const auto ready = sim.waitReady(dir / "ready.json");
   EXPECT_FALSE(ready.is_null()) << sim.wait().err;
   if (ready.is_null()) return run;
   const std::string port = "port=" + std::to_string(ready["plus_port"].get<int>());
-  EXPECT_EQ(runCli({"session", "create", session.string()}).exit_code, 0);
   run.pivot = runCli({"session", "run", session.string(), "pivot-calibration", "--param", port, "--json"});
   run.step = runCli({"session", "run", session.string(), "registration", "--param", "source=plus", "--param", port,
-                     "--param", "spacing_mm=1.2",
                      "--param", "duration_s=90", "--json"});
   sim.terminate();
   EXPECT_EQ(sim.wait(30.0).exit_code, 0);
@@ -89,7 +93,7 @@ RegistrationRun runRegistration(const std::string& name, int seed, const std::st
   EXPECT_EQ(session_json.find("truth"), std::string::npos);
   const auto recording = session / run.figures["recorded"]["file"].get<std::string>();
   run.offline = runCli({"session", "run", session.string(), "registration", "--param", "source=file", "--param",
-                        "recording=" + recording.string(), "--param", "spacing_mm=1.2", "--json"});
+                        "recording=" + recording.string(), "--json"});
   if (run.offline.exit_code == 0) run.offline_figures = Json::parse(run.offline.out)["figures"];
   return run;
 }

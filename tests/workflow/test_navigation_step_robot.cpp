@@ -13,7 +13,8 @@ namespace {
 
 TEST(NavigationStepRobot, WithAPlanTheTrackerLossStopsTheRobotAndTheFiguresSayWhy) {
   auto session = Session::create(test::scratchDirectory("navstep") / "session");
-  ASSERT_TRUE(runStep(session, "registration", {{"spacing_mm", 1.5}}, {}).ok);
+  ASSERT_TRUE(runStep(session, "import-phantom", {{"spacing_mm", 1.5}}, {}).ok);
+  ASSERT_TRUE(runStep(session, "registration", {}, {}).ok);
   const auto result = runStep(session, "navigation",
                               {{"duration_s", 3.0},
                                {"dropout_tool", "PatientToTracker"},
@@ -30,7 +31,7 @@ TEST(NavigationStepRobot, WithAPlanTheTrackerLossStopsTheRobotAndTheFiguresSayWh
   ASSERT_TRUE(f.contains("robot")) << f.dump(1);
   const auto& robot = f["robot"];
   EXPECT_EQ(robot["mode"], "simulated");
-  EXPECT_EQ(robot["plan"], session.step("registration")["figures"]["paths"][0]["name"]);
+  EXPECT_EQ(robot["plan"], session.plans().at(0).name);
   EXPECT_TRUE(robot["docked"].get<bool>());
   EXPECT_TRUE(f["robot_stopped"].get<bool>()) << f.dump(1);
   const std::string reason = f["stop_reason"];

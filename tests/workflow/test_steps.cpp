@@ -39,6 +39,8 @@ struct ProgressLog {
 TEST(Steps, ListIsThePaperWorkflowInOrder) {
   const auto steps = listSteps();
   const std::vector<std::string> expected = {
+      "import-ct", "import-label-map", "make-models", "import-phantom", "import-model", "shape-model",
+      "find-fiducials", "place-fiducial", "plan-screw", "import-plan", "export-plan",
       "connect-devices", "pivot-calibration", "spin-calibration", "drill-calibration", "drill-spin-calibration",
       "us-phantom-registration", "us-spatial-calibration",
       "us-temporal-calibration", "robot-calibration", "registration", "hmd-calibration", "checkerboard-digitisation",
@@ -48,15 +50,17 @@ TEST(Steps, ListIsThePaperWorkflowInOrder) {
     EXPECT_EQ(steps[i].name, expected[i]);
     EXPECT_TRUE(steps[i].area == "preparation" || steps[i].area == "function");
     EXPECT_FALSE(steps[i].title.empty());
+    EXPECT_FALSE(steps[i].group.empty());
   }
 }
 
 TEST(Steps, EverySimulatedStepRunsWithProgressAndRecordsFigures) {
   auto session = Session::create(test::scratchDirectory("s") / "session");
   const std::vector<std::pair<std::string, nlohmann::json>> runs = {
+      {"import-phantom", {{"spacing_mm", 1.5}}},
       {"connect-devices", {{"duration_s", 0.3}}},
       {"robot-calibration", nlohmann::json::object()},
-      {"registration", {{"spacing_mm", 1.5}}},
+      {"registration", nlohmann::json::object()},
       {"hmd-calibration", nlohmann::json::object()},
       {"navigation", {{"duration_s", 0.5}, {"deformation_cases", 1}, {"deformation_frames", 20}}},
       {"robot-placement", nlohmann::json::object()},
@@ -77,31 +81,28 @@ TEST(Steps, EverySimulatedStepRunsWithProgressAndRecordsFigures) {
   const auto reg = session.step("registration")["figures"];
   EXPECT_NEAR(reg["landmarks"]["fre_rms_mm"].get<double>(), 0.43, 0.3);
   EXPECT_LT(reg["surface"]["tre"]["max"].get<double>(), 1.5);
-  // The phantom's models are in the session, in CT mm like figures.paths: each
-  // planned entry lies on the lateral mass, so on its vertebra's surface up to
-  // the meshing error (half a 1.5 mm voxel plus smoothing/decimation, < 2 mm).
-  const auto outputs = session.step("registration")["outputs"];
-  std::set<std::string> files(outputs.begin(), outputs.end());
-  for (const char* model : {"C3", "C4", "C5", "C6", "C7", "vessel", "soft_tissue"}) {
-    const std::string file = std::string("registration/models/") + model + ".vtp";
-    EXPECT_TRUE(files.count(file)) << file;
+  // The phantom's models are in the session's document, in CT mm like its plan: each planned entry lies on the
+  // lateral mass, so on its vertebra's surface up to the meshing error (half a 1.5 mm voxel plus smoothing, < 2 mm).
+  for (const char* model : {"C3", "C4", "C5", "C6", "C7"}) {
+    const auto m = session.model(model);
+    ASSERT_TRUE(m.has_value()) << model;
+    EXPECT_EQ(m->role, ModelRole::Bone);
+    EXPECT_TRUE(std::filesystem::exists(session.resolve(m->file))) << m->file;
   }
-  EXPECT_EQ(reg["models"].size(), 7u);
-  for (const auto& path : reg["paths"]) {
-    const std::string name = path["name"];
-    const std::string level = name.substr(0, 2);  // "C5 left" -> C5
-    const MeshLocator bone(io::readMesh(session.resolve("registration/models/" + level + ".vtp")));
-    const auto& e = path["entry_ct"];
-    const Eigen::Vector3d entry(e[0].get<double>(), e[1].get<double>(), e[2].get<double>());
-    EXPECT_LT(bone.closestPoint(entry).distance, 2.0) << name;
+  const auto plans = session.plans();
+  ASSERT_EQ(plans.size(), 4u);
+  for (const auto& path : plans) {
+    const MeshLocator bone(io::readMesh(session.resolve(session.model(path.vertebra)->file)));
+    EXPECT_LT(bone.closestPoint(path.entry).distance, 2.0) << path.name;
   }
-  // The vessel model is the phantom's tube (same seed and spacing): every
-  // wall vertex between the lumen and the outer wall radius, give or take one
-  // 1.5 mm voxel; the neck outline encloses every vertebra.
+  // The vessel model is the phantom's tube (same spacing): every wall vertex between the lumen and the outer
+  // wall radius, give or take one 1.5 mm voxel.
   registration::PhantomOptions phantom_options;
   phantom_options.spacing_mm = 1.5;
   const auto phantom = registration::generateCervicalPhantom(phantom_options);
-  const auto vessel = io::readMesh(session.resolve("registration/models/vessel.vtp"));
+  const auto vessels = session.models(ModelRole::Vessel);
+  ASSERT_EQ(vessels.size(), 1u);
+  const auto vessel = io::readMesh(session.resolve(vessels[0].file));
   ASSERT_GT(vessel.vertexCount(), 100);
   // The tube is closed by caps where it leaves the image: skip those.
   const double z_min = vessel.vertices.col(2).minCoeff() + 2.0;
@@ -112,14 +113,15 @@ TEST(Steps, EverySimulatedStepRunsWithProgressAndRecordsFigures) {
     ASSERT_GT(r, phantom.vessel_lumen_radius_mm - 1.5) << "vertex " << i;
     ASSERT_LT(r, phantom.vessel_outer_radius_mm + 1.5) << "vertex " << i;
   }
-  const auto neck = io::readMesh(session.resolve("registration/models/soft_tissue.vtp"));
-  const Eigen::Vector3d neck_min = neck.vertices.colwise().minCoeff().transpose();
-  const Eigen::Vector3d neck_max = neck.vertices.colwise().maxCoeff().transpose();
-  for (const char* level : {"C3", "C7"}) {
-    const auto bone = io::readMesh(session.resolve(std::string("registration/models/") + level + ".vtp"));
-    const Eigen::Vector3d lo = bone.vertices.colwise().minCoeff().transpose();
-    const Eigen::Vector3d hi = bone.vertices.colwise().maxCoeff().transpose();
-    EXPECT_TRUE((lo.array() > neck_min.array()).all() && (hi.array() < neck_max.array()).all()) << level;
+  // The fiducials were found in the CT image (titanium above the metal threshold), not copied from the generator: each lies
+  // within a 1.5 mm voxel of where the phantom's screw enters its bone.
+  const auto fiducials = session.fiducials();
+  ASSERT_TRUE(fiducials.has_value());
+  ASSERT_EQ(fiducials->points.size(), phantom.fiducials_truth.points.size());
+  for (const auto& truth : phantom.fiducials_truth.points) {
+    double nearest = 1e9;
+    for (const auto& f : fiducials->points) nearest = std::min(nearest, (f.position_ct - truth.position).norm());
+    EXPECT_LT(nearest, 1.5) << truth.label;
   }
   EXPECT_LT(session.step("robot-calibration")["figures"]["tre_at_patient_mm"].get<double>(), 1.5);
   EXPECT_LT(session.step("hmd-calibration")["figures"]["tre_at_patient_mm"].get<double>(), 3.0);
@@ -185,8 +187,9 @@ TEST(Steps, CancelBeforeStartReturnsCancelledForEveryStep) {
   context.cancel = &cancel;
   for (const auto& step : listSteps()) {
     if (step.name == "robot-placement") {
-      // Placement needs registration and robot calibration recorded first.
-      ASSERT_TRUE(runStep(session, "registration", {{"spacing_mm", 1.5}}, {}).ok);
+      // Placement needs the patient's plan, its registration and the robot calibration recorded first.
+      ASSERT_TRUE(runStep(session, "import-phantom", {{"spacing_mm", 1.5}}, {}).ok);
+      ASSERT_TRUE(runStep(session, "registration", {}, {}).ok);
       ASSERT_TRUE(runStep(session, "robot-calibration", {}, {}).ok);
     }
     if (step.name.rfind("us-", 0) == 0 && !findDataFile("plus/fCal_Test_Calibration_3NWires.igs.mha")) {

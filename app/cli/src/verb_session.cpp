@@ -122,10 +122,30 @@ Json stepsJson(const workflow::Session& session) {
     const auto s = session.step(info.name);
     out.push_back(Json{{"name", info.name},
                        {"area", info.area},
+                       {"group", info.group},
                        {"status", s.is_null() ? "not run" : s.value("status", "?")},
                        {"summary", s.is_null() ? "" : s.value("summary", "")}});
   }
   return out;
+}
+
+// The document's types convert to nlohmann::json; the CLI prints ordered JSON.
+template <typename T>
+Json typed(const T& value) {
+  return Json::parse(nlohmann::json(value).dump());
+}
+
+Json transformsJson(const std::vector<workflow::TransformEntry>& list) {
+  Json out = Json::object();
+  for (const auto& t : list) out[t.name] = typed(t);
+  return out;
+}
+
+std::string fixed1(double v) {
+  std::ostringstream s;
+  s.precision(1);
+  s << std::fixed << v;
+  return s.str();
 }
 
 Report infoReport(const workflow::Session& session, const std::string& verb) {
@@ -134,10 +154,60 @@ Report infoReport(const workflow::Session& session, const std::string& verb) {
   report.json["folder"] = session.folder().string();
   report.json["version"] = session.state()["version"];
   report.json["created"] = session.state().value("created", "");
+  if (session.openedVersion() != workflow::kSessionVersion) report.json["migrated_from_version"] = session.openedVersion();
+  const auto ct = session.ct();
+  report.json["ct"] = ct ? typed(*ct) : Json(nullptr);
+  report.json["label_maps"] = typed(session.labelMaps());
+  report.json["models"] = typed(session.models());
+  const auto shape = session.shapeModel();
+  report.json["shape_model"] = shape ? typed(*shape) : Json(nullptr);
+  const auto fiducials = session.fiducials();
+  report.json["fiducials"] = fiducials ? typed(*fiducials) : Json(nullptr);
+  report.json["plans"] = typed(session.plans());
+  report.json["calibrations"] = transformsJson(session.calibrations());
+  report.json["registrations"] = transformsJson(session.registrations());
+  report.json["recordings"] = typed(session.recordings());
   report.json["steps"] = stepsJson(session);
   report.json["log_lines"] = session.state()["log"].size();
   std::ostringstream text;
-  text << "session " << session.folder().string() << "\n";
+  text << "session " << session.folder().string() << " (version " << workflow::kSessionVersion << ")\n";
+  if (ct) {
+    text << "  CT: " << ct->name << ", " << ct->size_px[0] << "x" << ct->size_px[1] << "x" << ct->size_px[2]
+         << " voxels of " << ct->spacing_mm.x() << " x " << ct->spacing_mm.y() << " x " << ct->spacing_mm.z()
+         << " mm (" << ct->file << ")\n";
+  } else {
+    text << "  CT: none (import-ct)\n";
+  }
+  for (const auto& m : session.models()) {
+    text << "  model " << m.id << ": " << workflow::modelRoleName(m.role) << ", " << m.triangles << " triangles, "
+         << fixed1(m.volume_ml) << " ml";
+    if (m.voxel_volume_ml > 0.0) text << " (voxels " << fixed1(m.voxel_volume_ml) << " ml)";
+    text << "\n";
+  }
+  if (fiducials) text << "  fiducials: " << fiducials->points.size() << "\n";
+  for (const auto& p : session.plans()) {
+    text << "  screw " << p.name << " (" << (p.vertebra.empty() ? "?" : p.vertebra) << ")";
+    const Json& f = p.figures;
+    if (f.contains("breach") && f["breach"].is_object()) {
+      text << ": breach " << fixed1(f["breach"].value("max_breach_mm", 0.0)) << " mm ("
+           << f["breach"].value("grade", "?") << ")";
+    }
+    if (f.contains("clearance") && f["clearance"].is_object()) {
+      for (const char* kind : {"vessel", "neural", "soft_tissue"}) {
+        if (f["clearance"].contains(kind) && f["clearance"][kind].is_object()) {
+          text << ", " << fixed1(f["clearance"][kind].value("min_clearance_mm", 0.0)) << " mm from "
+               << f["clearance"][kind].value("name", kind);
+        }
+      }
+    }
+    text << "\n";
+  }
+  for (const auto& list : {session.calibrations(), session.registrations()}) {
+    for (const auto& t : list) {
+      text << "  " << t.kind << " " << t.name << " (" << t.provenance.step << ", " << t.provenance.time
+           << (t.provenance.simulated ? ", simulated" : "") << ")\n";
+    }
+  }
   for (const auto& s : report.json["steps"]) {
     text << "  " << s["name"].get<std::string>() << ": " << s["status"].get<std::string>();
     if (!s["summary"].get<std::string>().empty()) text << " - " << s["summary"].get<std::string>();
@@ -193,7 +263,11 @@ void registerSessionVerbs(CLI::App& app, GlobalOptions& options, VerbList& verbs
     Json list = Json::array();
     std::ostringstream text;
     for (const auto& s : workflow::listSteps()) {
-      list.push_back(Json{{"name", s.name}, {"title", s.title}, {"area", s.area}, {"description", s.description}});
+      list.push_back(Json{{"name", s.name},
+                          {"title", s.title},
+                          {"area", s.area},
+                          {"group", s.group},
+                          {"description", s.description}});
       text << s.name << " (" << s.area << "): " << s.description << "\n";
     }
     report.json["steps"] = list;

@@ -1,40 +1,32 @@
 #pragma once
-// The CT side of a patient registration: the patient's CT (the generated
-// cervical phantom the session names as its input), its bone surface, the
-// fiducial screws found in the CT image (metal threshold, one cluster per
-// screw, where its axis meets the bone), the planned screw paths, and the
-// context models the session shows.
+// The CT side of a patient registration: what the session's typed document
+// holds (the bone models, the fiducials in the CT, the planned screws), read
+// once for a registration acquired from the devices or the in-process
+// simulated patient.
 #include <string>
 #include <vector>
 
 #include "mrsns/core/mesh.h"
-#include "mrsns/registration/fiducials_from_mesh.h"
-#include "mrsns/registration/label_meshing.h"
-#include "mrsns/registration/phantom_cervical.h"
 #include "step_internal.h"
 
 namespace mrsns::workflow::detail {
 
-struct PreparedCt {
-  registration::CervicalPhantom phantom;
-  registration::LabelMeshingResult bone_meshes;
-  TriangleMesh bone;  ///< every vertebra in one mesh (CT mm)
-  /// The fiducial screws found in the CT image, not the generator's list.
-  std::vector<registration::DetectedFiducial> fiducials;
-  int metal_components = 0;  ///< connected metal regions (the number of screws looked for)
+/// The session's CT as a registration needs it.
+struct SessionRegistrationTargets {
+  std::string ct_name;
+  TriangleMesh bone;  ///< every bone model of the session in one mesh (CT mm)
+  std::vector<std::string> labels;
+  std::vector<Eigen::Vector3d> fiducials_ct;
+  /// Unit, out of the bone: the fiducial screw's axis when it was found, else the bone's outward normal there.
+  std::vector<Eigen::Vector3d> fiducial_axes_ct;
+  std::vector<double> confidences;  ///< of an automatic find; NaN for placed or imported fiducials
+  std::vector<PlannedScrew> plans;
 };
 
-/// Generates the CT, meshes the vertebrae and finds the fiducials; progress
-/// between `from` and `to`. Throws ComputationError when the CT holds fewer
-/// than 3 metal screws.
-PreparedCt prepareCt(const registration::PhantomOptions& options, const StepContext& context, double from,
-                     double to);
-
-/// Writes the models (vertebrae, vessel, neck outline) in CT mm into
-/// registration/models and returns their list for figures.models.
-Json writePhantomModels(Session& session, const PreparedCt& ct, std::vector<std::string>& outputs);
-
-/// figures.paths: the planned screws (CT mm).
-Json screwPathsJson(const registration::CervicalPhantom& phantom);
+/// Reads the session's bone models, fiducials and plan. Throws
+/// InvalidArgumentError naming the step to run when the session has no CT
+/// (import-ct), no bone model (make-models) or fewer than 3 fiducials
+/// (find-fiducials, place-fiducial).
+SessionRegistrationTargets sessionRegistrationTargets(const Session& session, const std::string& step);
 
 }  // namespace mrsns::workflow::detail

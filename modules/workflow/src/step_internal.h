@@ -55,6 +55,18 @@ tracking::IgtlSourceOptions plusClientOptions(const std::string& host, int port)
 /// RMS, mean, max of values.
 Json statsJson(const std::vector<double>& values);
 
+StepResult runImportCt(Session& session, const Json& params, const StepContext& context);
+StepResult runImportLabelMap(Session& session, const Json& params, const StepContext& context);
+StepResult runMakeModels(Session& session, const Json& params, const StepContext& context);
+StepResult runImportModel(Session& session, const Json& params, const StepContext& context);
+/// import-phantom: the cervical phantom's CT, segmentation and plan generated, then imported as a user's data.
+StepResult runImportPhantom(Session& session, const Json& params, const StepContext& context);
+StepResult runShapeModel(Session& session, const Json& params, const StepContext& context);
+StepResult runFindFiducials(Session& session, const Json& params, const StepContext& context);
+StepResult runPlaceFiducial(Session& session, const Json& params, const StepContext& context);
+StepResult runPlanScrew(Session& session, const Json& params, const StepContext& context);
+StepResult runImportPlan(Session& session, const Json& params, const StepContext& context);
+StepResult runExportPlan(Session& session, const Json& params, const StepContext& context);
 StepResult runConnectDevices(Session& session, const Json& params, const StepContext& context);
 StepResult runPivotCalibration(Session& session, const Json& params, const StepContext& context);
 StepResult runDrillCalibration(Session& session, const Json& params, const StepContext& context);

@@ -130,9 +130,9 @@ void configureUr(const Session& session, const Params& params, NavigationOptions
 }  // namespace
 
 void configureNavigationRobot(const Session& session, const Params& params, NavigationOptions& options) {
-  const auto registration = session.step("registration");
-  const bool has_plan = !registration.is_null() && registration.value("status", "") == "ok" &&
-                        registration["figures"].contains("paths") && !registration["figures"]["paths"].empty();
+  // The session's plan, placed on the patient by its registration.
+  const auto plans = session.plans();
+  const bool has_plan = !plans.empty() && session.transform("CTToPatient").has_value();
   options.silence_timeout_s = params.number("silence_timeout_s", options.silence_timeout_s);
   if (!(options.silence_timeout_s > 0.0 && options.silence_timeout_s <= 10.0)) {
     throw InvalidArgumentError("navigation: silence_timeout_s must be in (0, 10] s");
@@ -154,16 +154,15 @@ void configureNavigationRobot(const Session& session, const Params& params, Navi
     throw InvalidArgumentError("navigation: max_cycle_time_s must be in (0, 1] s");
   }
   if (!has_plan) return;  // the default path in front of the patient reference
-  const auto& paths = registration["figures"]["paths"];
   const int index = params.integer("robot_path", 0);
-  if (index < 0 || index >= static_cast<int>(paths.size())) {
+  if (index < 0 || index >= static_cast<int>(plans.size())) {
     throw InvalidArgumentError("navigation: robot_path " + std::to_string(index) + " is not in 0.." +
-                               std::to_string(paths.size() - 1) + " (the registration's planned paths)");
+                               std::to_string(plans.size() - 1) + " (the session's planned screws)");
   }
-  const auto& path = paths[static_cast<std::size_t>(index)];
-  options.robot.plan.name = path.value("name", "path " + std::to_string(index));
-  options.robot.plan.entry = vector3(path["entry_ct"], "entry_ct of " + options.robot.plan.name);
-  options.robot.plan.target = vector3(path["target_ct"], "target_ct of " + options.robot.plan.name);
+  const auto& path = plans[static_cast<std::size_t>(index)];
+  options.robot.plan.name = path.name;
+  options.robot.plan.entry = path.entry;
+  options.robot.plan.target = path.target;
   Eigen::Matrix4d patient_T_ct;
   if (findRecordedTransform(session, "CTToPatient", patient_T_ct)) options.robot.patient_T_plan.matrix() = patient_T_ct;
 }

@@ -1,20 +1,19 @@
 // Patient registration: the dispatch between the live acquisition
-// (source=plus, the default once connect-devices used a PlusServer or when host/port are given: step_registration_live.cpp), its recomputation from a
+// (source=plus, the default once connect-devices used a PlusServer or when
+// host/port are given: step_registration_live.cpp), its recomputation from a
 // recording (source=file), and the in-process simulated patient
-// (source=simulated, below): landmarks and surface points drawn around a
-// seeded patient pose, which this step then scores itself. The simulated
-// variant remains for the in-process workflow until every step acquires from
-// mrsns-sim; its figures carry the simulation truth and say so.
+// (source=simulated, below): the session's CT fiducials and bone placed at a
+// seeded patient pose, touched with noise, which this step then scores
+// itself. The simulated variant remains for the in-process workflow until
+// every step acquires from mrsns-sim; its figures carry the simulation truth
+// and say so.
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <filesystem>
 #include <sstream>
 
-#include "mrsns/io/mesh_io.h"
-#include "mrsns/registration/label_meshing.h"
 #include "mrsns/registration/paired_point.h"
-#include "mrsns/registration/phantom_cervical.h"
 #include "mrsns/registration/surface_registration.h"
 #include "registration_ct.h"
 #include "simulation.h"
@@ -44,7 +43,7 @@ StepResult runRegistration(Session& session, const Json& params, const StepConte
 
 StepResult runSimulatedRegistration(Session& session, const Json& params, const StepContext& context) {
   const Params p("registration", params,
-                 {"source", "seed", "spacing_mm", "landmark_noise_mm", "surface_points", "surface_noise_mm"});
+                 {"source", "seed", "landmark_noise_mm", "surface_points", "surface_noise_mm"});
   const auto seed = static_cast<std::uint64_t>(p.integer("seed", 1));
   const double fle = p.number("landmark_noise_mm", 0.5);
   const double surface_noise = p.number("surface_noise_mm", 0.3);
@@ -52,11 +51,10 @@ StepResult runSimulatedRegistration(Session& session, const Json& params, const 
   if (fle < 0.0 || surface_noise < 0.0 || surface_points < 10) {
     throw InvalidArgumentError("registration: noise must be >= 0 mm and surface_points >= 10");
   }
-  registration::PhantomOptions phantom_options;
-  phantom_options.spacing_mm = p.number("spacing_mm", 1.2);
-  phantom_options.seed = seed;
-  const PreparedCt ct = prepareCt(phantom_options, context, 0.05, 0.45);
-  const auto& phantom = ct.phantom;
+  // The session's CT, touched by an in-process simulated stylus: its fiducials and bone are the simulated
+  // patient's, placed at a seeded pose this step then scores itself against.
+  context.report(0.05, "reading the CT's bone models and fiducials");
+  const SessionRegistrationTargets ct = sessionRegistrationTargets(session, "registration");
   const auto& bone = ct.bone;
   checkCancel(context);
 
@@ -66,9 +64,9 @@ StepResult runSimulatedRegistration(Session& session, const Json& params, const 
 
   context.report(0.5, "landmark registration");
   std::vector<Eigen::Vector3d> landmarks_ct, landmarks_patient;
-  for (const auto& l : phantom.fiducials_truth.points) {
-    landmarks_ct.push_back(l.position);
-    landmarks_patient.push_back(patient_T_ct * l.position + sim.noise(fle));
+  for (const auto& position : ct.fiducials_ct) {
+    landmarks_ct.push_back(position);
+    landmarks_patient.push_back(patient_T_ct * position + sim.noise(fle));
   }
   const auto pp = registration::registerPairedPoints(landmarks_ct, landmarks_patient);
   Eigen::Isometry3d landmark_patient_T_ct = Eigen::Isometry3d::Identity();
@@ -98,24 +96,19 @@ StepResult runSimulatedRegistration(Session& session, const Json& params, const 
   // Target registration error at the planned screw entries and targets.
   std::vector<double> tre_landmarks, tre_icp;
   Json targets = Json::array();
-  for (const auto& path : phantom.screw_paths) {
-    for (const auto& [what, point] : {std::pair{"entry", path.entry}, std::pair{"target", path.target}}) {
+  for (const auto& screw : ct.plans) {
+    for (const auto& [what, point] : {std::pair{"entry", screw.entry}, std::pair{"target", screw.target}}) {
       const Eigen::Vector3d truth = patient_T_ct * point;
       tre_landmarks.push_back((landmark_patient_T_ct * point - truth).norm());
       tre_icp.push_back((icp_patient_T_ct * point - truth).norm());
-      targets.push_back({{"path", path.name},
+      targets.push_back({{"path", screw.name},
                          {"point", what},
                          {"tre_landmarks_mm", tre_landmarks.back()},
                          {"tre_surface_mm", tre_icp.back()},
                          {"tre_predicted_mm", registration::predictTreRms(landmarks_ct, point, fle)}});
     }
   }
-  const Json paths = screwPathsJson(phantom);
-  context.report(0.9, "writing the phantom models");
-  std::vector<std::string> outputs;
-  const Json models = writePhantomModels(session, ct, outputs);
   StepResult result;
-  result.outputs = outputs;
   result.ok = icp.converged || icp.rms_mm < 3.0 * surface_noise + 0.5;
   result.figures = {{"landmarks",
                      {{"count", landmarks_ct.size()},
@@ -130,16 +123,16 @@ StepResult runSimulatedRegistration(Session& session, const Json& params, const 
                       {"inlier_fraction", icp.inlier_fraction},
                       {"tre", statsJson(tre_icp)}}},
                     {"targets", targets},
-                    {"paths", paths},
-                    {"models", models},
+                    {"ct", ct.ct_name},
                     {"source", "simulated"},
                     {"noise_model", {{"landmark_fle_rms_mm", fle}, {"surface_noise_rms_mm", surface_noise}}},
                     {"transforms", {{"CTToPatient", matrixJson(icp_patient_T_ct.matrix())}}},
                     {"simulation_truth", {{"CTToPatient", matrixJson(patient_T_ct.matrix())}}}};
   std::ostringstream s;
   s.precision(3);
-  s << "landmarks FRE " << pp.fre_rms_mm << " mm, surface RMS " << icp.rms_mm << " mm, TRE at the screw paths "
-    << result.figures["surface"]["tre"]["rms"].get<double>() << " mm RMS";
+  s << "landmarks FRE " << pp.fre_rms_mm << " mm, surface RMS " << icp.rms_mm << " mm";
+  if (!tre_icp.empty()) s << ", TRE at the screw paths " << result.figures["surface"]["tre"]["rms"].get<double>() << " mm RMS";
+  s << " (in-process simulated patient)";
   result.summary = s.str();
   return result;
 }

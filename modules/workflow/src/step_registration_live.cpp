@@ -7,7 +7,6 @@
 // source=file recomputes it from the recording with the same numbers.
 #include <Eigen/Geometry>
 #include <chrono>
-#include <future>
 #include <memory>
 #include <optional>
 #include <filesystem>
@@ -22,6 +21,7 @@
 #include "mrsns/registration/surface_registration.h"
 #include "registration_acquisition.h"
 #include "registration_ct.h"
+#include "mrsns/core/mesh_locator.h"
 #include "step_internal.h"
 
 namespace mrsns::workflow::detail {
@@ -63,7 +63,7 @@ std::string progressText(const RegistrationAcquisition& a, const RegistrationTar
 StepResult runAcquiredRegistration(Session& session, const Json& params, const StepContext& context) {
   const Params p("registration",
                  params, {"source", "host", "port", "recording", "connect_timeout_s", "duration_s", "tool", "reference",
-                          "spacing_mm", "seed", "dwell_s", "dwell_radius_mm", "match_tolerance_mm", "min_landmarks",
+                          "dwell_s", "dwell_radius_mm", "match_tolerance_mm", "min_landmarks",
                           "surface_points", "surface_gate_mm", "idle_s"});
   LiveRegistrationOptions o;
   o.tool = p.text("tool", o.tool);
@@ -92,35 +92,19 @@ StepResult runAcquiredRegistration(Session& session, const Json& params, const S
     throw InvalidArgumentError("registration: source must be plus (live), file or simulated, not '" + source + "'");
   }
 
-  // The CT: its fiducials are what the touches match. Live, it is prepared while the tracking is already
-  // recorded, so a touch made meanwhile is not lost.
-  registration::PhantomOptions phantom_options;
-  phantom_options.spacing_mm = p.number("spacing_mm", 0.8);
-  phantom_options.seed = static_cast<std::uint64_t>(p.integer("seed", 1));
-  StepContext quiet;  // the preparation's own progress would race the acquisition's on another thread
-  quiet.cancel = context.cancel;
-  std::future<PreparedCt> preparing =
-      std::async(std::launch::async, [phantom_options, quiet] { return prepareCt(phantom_options, quiet, 0.0, 1.0); });
-  std::optional<PreparedCt> ct;
-  std::unique_ptr<MeshLocator> bone_locator;
+  // The session's CT: its bone models and fiducials are what the touches are matched and fitted to.
+  context.report(0.02, "reading the CT's bone models and fiducials");
+  const SessionRegistrationTargets anatomy = sessionRegistrationTargets(session, "registration");
+  const MeshLocator bone_locator(anatomy.bone);
   RegistrationTargets targets;
-  // Once the CT is ready (rethrows its error): the targets the touches are matched to.
-  const auto ctReady = [&](bool wait) {
-    if (ct) return true;
-    if (!wait && preparing.wait_for(std::chrono::seconds(0)) != std::future_status::ready) return false;
-    ct = preparing.get();
-    bone_locator = std::make_unique<MeshLocator>(ct->bone);
-    for (const auto& f : ct->fiducials) {
-      targets.labels.push_back(f.label);
-      targets.fiducials_ct.push_back(f.position);
-      targets.fiducial_axes_ct.push_back(f.axis);
-    }
-    targets.bone = bone_locator.get();
-    return true;
-  };
-  if (source != "plus") {
-    context.report(0.05, "preparing the CT: the vertebrae and the fiducial screws");
-    ctReady(true);
+  targets.labels = anatomy.labels;
+  targets.fiducials_ct = anatomy.fiducials_ct;
+  targets.fiducial_axes_ct = anatomy.fiducial_axes_ct;
+  targets.bone = &bone_locator;
+  if (static_cast<int>(targets.fiducials_ct.size()) < o.min_landmarks) {
+    throw InvalidArgumentError("registration: the session's CT has " + std::to_string(targets.fiducials_ct.size()) +
+                               " fiducial(s) and min_landmarks is " + std::to_string(o.min_landmarks) +
+                               ": find or place more fiducials (find-fiducials, place-fiducial), or lower min_landmarks");
   }
 
   StepResult result;
@@ -139,12 +123,6 @@ StepResult runAcquiredRegistration(Session& session, const Json& params, const S
       const auto now = std::chrono::steady_clock::now();
       if (now - last >= std::chrono::milliseconds(500)) {
         last = now;
-        if (!ctReady(false)) {
-          message = "preparing the CT (the vertebrae and the fiducial screws); the tracking is recorded meanwhile: "
-                    "touch the fiducial screws with the " + o.tool + " tip, holding each still for a second";
-          shown = message;
-          return false;
-        }
         try {
           const auto state = analyseRegistrationFrames(so_far, targets, a);
           if (!so_far.empty() && state.frames_without_pose + 30 <= so_far.size()) {
@@ -180,8 +158,6 @@ StepResult runAcquiredRegistration(Session& session, const Json& params, const S
     throw InvalidArgumentError("registration: source must be plus (live), file or simulated, not '" + source + "'");
   }
   checkCancel(context);
-  if (!ct) context.report(0.55, "finishing the CT's preparation");
-  ctReady(true);
   context.report(0.6, "matching the touches to the CT's fiducials");
 
   const auto acq = analyseRegistrationFrames(frames, targets, a);
@@ -194,12 +170,12 @@ StepResult runAcquiredRegistration(Session& session, const Json& params, const S
       "mrsns-cli session run " + session.folder().string() + " registration --param source=file --param recording=" +
       recordingPath(session, recording).string();
   Json fiducials = Json::array();
-  for (std::size_t f = 0; f < ct->fiducials.size(); ++f) {
-    const auto& d = ct->fiducials[f];
+  for (std::size_t f = 0; f < targets.fiducials_ct.size(); ++f) {
+    const Eigen::Vector3d& position = targets.fiducials_ct[f];
     const int c = acq.capture_of_fiducial[f];
-    Json entry = {{"label", d.label},
-                  {"ct_mm", {d.position.x(), d.position.y(), d.position.z()}},
-                  {"ct_confidence", d.confidence},
+    Json entry = {{"label", targets.labels[f]},
+                  {"ct_mm", {position.x(), position.y(), position.z()}},
+                  {"ct_confidence", anatomy.confidences[f]},
                   {"touched", c >= 0}};
     if (c >= 0) {
       const auto& cap = acq.captures[static_cast<std::size_t>(c)];
@@ -219,7 +195,7 @@ StepResult runAcquiredRegistration(Session& session, const Json& params, const S
   if (acq.matched < o.min_landmarks) {
     result.figures["landmarks"] = {{"fiducials", fiducials}, {"touches", acq.captures.size()}, {"matched", acq.matched}};
     result.ok = false;
-    result.summary = std::to_string(acq.matched) + " of " + std::to_string(ct->fiducials.size()) +
+    result.summary = std::to_string(acq.matched) + " of " + std::to_string(targets.fiducials_ct.size()) +
                      " fiducials matched from " + std::to_string(acq.captures.size()) + " touches, " +
                      std::to_string(o.min_landmarks) + " needed" +
                      (acq.matched >= 3 ? "; not touched: " + untouchedLabels(acq, targets) : std::string()) + left_out +
@@ -258,7 +234,7 @@ StepResult runAcquiredRegistration(Session& session, const Json& params, const S
     registration::IcpOptions icp_options;
     icp_options.max_correspondence_distance_mm = o.max_correspondence_mm;
     const auto icp =
-        registration::registerSurface(acq.surface_patient, ct->bone, acq.landmark_patient_T_ct.inverse(), icp_options);
+        registration::registerSurface(acq.surface_patient, anatomy.bone, acq.landmark_patient_T_ct.inverse(), icp_options);
     result.figures["surface"] = {{"points", acq.surface_patient.size()},
                                  {"rms_mm", icp.rms_mm},
                                  {"iterations", icp.iterations},
@@ -275,38 +251,35 @@ StepResult runAcquiredRegistration(Session& session, const Json& params, const S
   // Where the landmarks' uncertainty puts the planned screws (Fitzpatrick-West, from the FRE's FLE).
   Json targets_json = Json::array();
   std::vector<double> predicted;
-  for (const auto& path : ct->phantom.screw_paths) {
-    for (const auto& [what, point] : {std::pair{"entry", path.entry}, std::pair{"target", path.target}}) {
+  for (const auto& screw : anatomy.plans) {
+    for (const auto& [what, point] : {std::pair{"entry", screw.entry}, std::pair{"target", screw.target}}) {
       predicted.push_back(registration::predictTreRms(matched_ct, point, pp.fle_rms_estimate_mm));
-      targets_json.push_back({{"path", path.name}, {"point", what}, {"tre_predicted_mm", predicted.back()}});
+      targets_json.push_back({{"path", screw.name}, {"point", what}, {"tre_predicted_mm", predicted.back()}});
     }
   }
-  context.report(0.9, "writing the models");
-  std::vector<std::string> model_outputs;
-  const Json models = writePhantomModels(session, *ct, model_outputs);
-  result.outputs.insert(result.outputs.end(), model_outputs.begin(), model_outputs.end());
   result.figures["method"] = method;
   result.figures["targets"] = targets_json;
-  result.figures["tre_predicted_at_screws"] = statsJson(predicted);
-  result.figures["paths"] = screwPathsJson(ct->phantom);
-  result.figures["models"] = models;
+  if (!predicted.empty()) result.figures["tre_predicted_at_screws"] = statsJson(predicted);
+  result.figures["ct"] = anatomy.ct_name;
   result.figures["transforms"] = {{"CTToPatient", matrixJson(patient_T_ct.matrix())},
                                   {"CTToPatientLandmarks", matrixJson(acq.landmark_patient_T_ct.matrix())}};
   result.ok = true;
   std::ostringstream s;
-  s << acq.matched << " of " << ct->fiducials.size() << " fiducials, FRE " << formatFixed(pp.fre_rms_mm, 2) << " mm";
+  s << acq.matched << " of " << targets.fiducials_ct.size() << " fiducials, FRE " << formatFixed(pp.fre_rms_mm, 2) << " mm";
   if (result.figures["surface"].contains("rms_mm")) {
     s << ", " << acq.surface_patient.size() << " surface points, ICP RMS "
       << formatFixed(result.figures["surface"]["rms_mm"].get<double>(), 2) << " mm";
   }
-  s << "; predicted TRE at the screws " << formatFixed(result.figures["tre_predicted_at_screws"]["rms"].get<double>(), 2)
-    << " mm RMS";
+  if (!predicted.empty()) {
+    s << "; predicted TRE at the screws " << formatFixed(result.figures["tre_predicted_at_screws"]["rms"].get<double>(), 2)
+      << " mm RMS";
+  }
   if (!suspects.empty()) {
     s << "; suspect: " << suspects[0]["label"].get<std::string>() << " ("
       << formatFixed(suspects[0]["leave_one_out_mm"].get<double>(), 1)
       << " mm from where the others put it): touch it again";
   }
-  if (acq.matched < static_cast<int>(ct->fiducials.size())) s << "; not touched: " << untouchedLabels(acq, targets);
+  if (acq.matched < static_cast<int>(targets.fiducials_ct.size())) s << "; not touched: " << untouchedLabels(acq, targets);
   s << left_out;
   result.summary = s.str();
   return result;

@@ -215,17 +215,20 @@ StepResult runRobotPlacement(Session& session, const Json& params, const StepCon
   const Eigen::Isometry3d true_tracker_T_base =
       robot_simulated ? recorded(session, "robot-calibration", "simulation_truth", "RobotBaseToTracker")
                       : est_tracker_T_base;
-  const auto paths = session.step("registration")["figures"]["paths"];
+  const auto paths = session.plans();
+  if (paths.empty()) {
+    throw InvalidArgumentError("robot-placement: the session has no planned screw: plan them first (plan-screw, "
+                               "import-plan)");
+  }
   Simulation sim(seed * 32452843 + 17);
   std::vector<double> entry_errors, target_errors, angle_errors;
   Json per_path = Json::array();
   std::size_t i = 0;
   for (const auto& path : paths) {
     checkCancel(context);
-    context.report(0.1 + 0.8 * static_cast<double>(i++) / static_cast<double>(paths.size()),
-                   "placing " + path["name"].get<std::string>());
-    const Eigen::Vector3d entry(path["entry_ct"][0], path["entry_ct"][1], path["entry_ct"][2]);
-    const Eigen::Vector3d target(path["target_ct"][0], path["target_ct"][1], path["target_ct"][2]);
+    context.report(0.1 + 0.8 * static_cast<double>(i++) / static_cast<double>(paths.size()), "placing " + path.name);
+    const Eigen::Vector3d entry = path.entry;
+    const Eigen::Vector3d target = path.target;
     // Chain Eq. 4: CT -> patient (registration) -> tracker (live patient
     // marker, noisy) -> robot base (calibration); the robot goes where the
     // estimated chain says, the truth places the guide.
@@ -240,7 +243,7 @@ StepResult runRobotPlacement(Session& session, const Json& params, const StepCon
     target_errors.push_back((placed_target - target).norm());
     const double cosine = (placed_target - placed_entry).normalized().dot((target - entry).normalized());
     angle_errors.push_back(std::acos(std::clamp(cosine, -1.0, 1.0)) * 180.0 / M_PI);
-    per_path.push_back({{"name", path["name"]},
+    per_path.push_back({{"name", path.name},
                         {"entry_error_mm", entry_errors.back()},
                         {"target_error_mm", target_errors.back()},
                         {"angle_error_deg", angle_errors.back()},

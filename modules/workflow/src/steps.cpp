@@ -12,51 +12,113 @@
 namespace mrsns::workflow {
 
 std::vector<StepInfo> listSteps() {
-  return {
+  std::vector<StepInfo> steps = {
+      {"import-ct", "Import CT", "preparation",
+       "The patient's CT (NIfTI, NRRD, MetaImage, a DICOM file or series folder, series=): checked to be a CT in "
+       "Hounsfield units, stored in the session with its geometry",
+       "data"},
+      {"import-label-map", "Import label map", "preparation",
+       "A label map of the CT (TotalSegmentator, VerSe or any integer labels): checked against the CT's geometry, "
+       "its labels named with their role",
+       "data"},
+      {"make-models", "Make models", "preparation",
+       "Surface models from the label map's labels (source=labels) or a bone threshold (source=threshold): volume "
+       "checked against the voxels, a light copy for the headset",
+       "data"},
+      {"import-phantom", "Phantom patient data", "preparation",
+       "MR-SNS's cervical phantom as a patient: its CT, segmentation and planned screws generated as make-phantom "
+       "writes them, then imported (CT, label map, bone and vessel models, fiducials found in the CT, plan)",
+       "data"},
+      {"import-model", "Import model", "preparation",
+       "A surface mesh in the CT's frame (STL, VTP, VTK, OBJ, PLY) with its role and colour", "data"},
+      {"shape-model", "Soft-tissue shape model", "preparation",
+       "The statistical shape model of the critical soft tissue (statismo .h5, or built from meshes in "
+       "correspondence), placed in the CT",
+       "data"},
+      {"find-fiducials", "Find fiducials", "preparation",
+       "The fiducials in the CT: on a screw or marker label, on metal above a threshold, or from a markups file",
+       "planning"},
+      {"place-fiducial", "Place fiducial", "preparation",
+       "A fiducial placed (or moved, or removed) by hand at a point of the CT", "planning"},
+      {"plan-screw", "Plan screw", "preparation",
+       "A pedicle screw by its entry and target in the CT, diameter, length, vertebra and side: clearance to soft "
+       "tissue and vessels, cortical breach, angles to the vertebra's axes",
+       "planning"},
+      {"import-plan", "Import plan", "preparation", "Planned screws from a 3D Slicer markups file of lines",
+       "planning"},
+      {"export-plan", "Export plan", "preparation", "The planned screws as a 3D Slicer markups file of lines",
+       "planning"},
       {"connect-devices", "Connect devices", "preparation",
-       "Tracker (simulated, PlusServer over OpenIGTLink, or playback of a PLUS recording): tools seen, rate, jitter"},
+       "Tracker (simulated, PlusServer over OpenIGTLink, or playback of a PLUS recording): tools seen, rate, jitter",
+       "devices"},
       {"pivot-calibration", "Tool pivot calibration", "preparation",
-       "Tip of the stylus (or drill) from pivoting it in a divot, recorded live from the PlusServer"},
+       "Tip of the stylus (or drill) from pivoting it in a divot, recorded live from the PlusServer",
+       "calibration"},
       {"spin-calibration", "Tool spin calibration", "preparation",
        "Shaft of the stylus from turning it about its shaft with the tip in the divot (after its pivot calibration): "
-       "the tip's whole frame, recorded live from the PlusServer"},
+       "the tip's whole frame, recorded live from the PlusServer",
+       "calibration"},
       {"drill-calibration", "Drill pivot calibration", "preparation",
        "Tip of the drill on the robot's flange (marker FlangeToTracker) from pivoting it by hand in a divot "
-       "(freedrive), recorded live from the PlusServer"},
+       "(freedrive), recorded live from the PlusServer",
+       "calibration"},
       {"drill-spin-calibration", "Drill spin calibration", "preparation",
        "Axis of the drill on the robot's flange from turning it about its axis with the tip in the divot (after the "
-       "drill's pivot calibration): the drilling direction navigation uses"},
+       "drill's pivot calibration): the drilling direction navigation uses",
+       "calibration"},
       {"us-phantom-registration", "Ultrasound phantom registration", "preparation",
        "PhantomToReference from the N-wire phantom's landmarks touched with the calibrated stylus (fCal's phantom "
-       "registration), recorded live from the PlusServer"},
+       "registration), recorded live from the PlusServer",
+       "registration"},
       {"us-spatial-calibration", "Ultrasound spatial calibration", "preparation",
        "N-wire calibration of ImageToProbe from a live sweep (source=plus) or a tracked recording (PLUS fCal data by "
-       "default)"},
+       "default)",
+       "calibration"},
       {"us-temporal-calibration", "Ultrasound temporal calibration", "preparation",
-       "Tracker lag behind the video, from the same N-wire recording (reprojection error over lags)"},
+       "Tracker lag behind the video, from the same N-wire recording (reprojection error over lags)",
+       "calibration"},
       {"robot-calibration", "Robot calibration", "preparation",
-       "RobotBase to tracker calibration from flange-marker positions"},
+       "RobotBase to tracker calibration from flange-marker positions",
+       "calibration"},
       {"registration", "Patient registration", "preparation",
-       "Landmarks then surface (ICP) registration of the CT models to the patient"},
+       "Landmarks then surface (ICP) registration of the CT models to the patient",
+       "registration"},
       {"hmd-calibration", "HMD calibration", "preparation",
-       "Hologram (HoloLens) to tracker calibration with the calibration cube (Eq. 2-3)"},
+       "Hologram (HoloLens) to tracker calibration with the calibration cube (Eq. 2-3)",
+       "calibration"},
       {"checkerboard-digitisation", "Checkerboard digitisation", "preparation",
        "The tracked checkerboard's corners touched with the calibrated stylus (paper 000 §2.3): GridToBoard and the "
-       "digitised corners the HMD camera calibration uses"},
+       "digitised corners the HMD camera calibration uses",
+       "calibration"},
       {"hmd-camera-calibration", "HMD camera calibration", "preparation",
        "The headset camera in the headset marker's frame (CameraToHeadset) from the headset's photos of the tracked "
-       "checkerboard (paper 000's hand-eye method)"},
+       "checkerboard (paper 000's hand-eye method)",
+       "calibration"},
       {"navigation", "Navigation", "function",
-       "Tracking -> repository -> deformation -> supervisor -> hologram stream, every stream recorded"},
+       "Tracking -> repository -> deformation -> supervisor -> hologram stream, every stream recorded",
+       "navigation"},
       {"robot-placement", "Robot-assisted placement", "function",
-       "Robot-guided pedicle screw placement on the planned paths: entry, target and angle errors"},
+       "Robot-guided pedicle screw placement on the planned paths: entry, target and angle errors",
+       "navigation"},
   };
+  return steps;
 }
 
 StepResult runStep(Session& session, const std::string& step, const nlohmann::json& params,
                    const StepContext& context) {
   using Runner = StepResult (*)(Session&, const nlohmann::json&, const StepContext&);
   static const std::pair<const char*, Runner> kRunners[] = {
+      {"import-ct", detail::runImportCt},
+      {"import-label-map", detail::runImportLabelMap},
+      {"make-models", detail::runMakeModels},
+      {"import-model", detail::runImportModel},
+      {"import-phantom", detail::runImportPhantom},
+      {"shape-model", detail::runShapeModel},
+      {"find-fiducials", detail::runFindFiducials},
+      {"place-fiducial", detail::runPlaceFiducial},
+      {"plan-screw", detail::runPlanScrew},
+      {"import-plan", detail::runImportPlan},
+      {"export-plan", detail::runExportPlan},
       {"connect-devices", detail::runConnectDevices},
       {"pivot-calibration", detail::runPivotCalibration},
       {"drill-calibration", detail::runDrillCalibration},
@@ -90,6 +152,7 @@ StepResult runStep(Session& session, const std::string& step, const nlohmann::js
   StepResult result;
   context.report(0.0, "starting " + step);
   try {
+    detail::checkCancel(context);  // cancelled before it started: nothing is read or written
     result = runner(session, p, context);
   } catch (const detail::Cancelled&) {
     result = StepResult{};
@@ -210,17 +273,11 @@ Eigen::Matrix4d matrixFromJson(const Json& j, const std::string& what) {
 }
 
 bool findRecordedTransform(const Session& session, const std::string& name, Eigen::Matrix4d& out) {
-  for (const auto& [step, entry] : session.state().at("steps").items()) {
-    if (!entry.is_object() || !entry.contains("figures")) continue;
-    // A step that failed or was cancelled gives nothing (an import's record has no status).
-    if (entry.contains("status") && entry["status"] != "ok") continue;
-    const auto& figures = entry.at("figures");
-    if (figures.is_object() && figures.contains("transforms") && figures["transforms"].contains(name)) {
-      out = matrixFromJson(figures["transforms"][name], "session.json steps." + step + ".transforms." + name);
-      return true;
-    }
-  }
-  return false;
+  // The session's typed calibrations and registrations: the latest step that succeeded with it.
+  const auto entry = session.transform(name);
+  if (!entry) return false;
+  out = entry->matrix;
+  return true;
 }
 
 Json statsJson(const std::vector<double>& values) {

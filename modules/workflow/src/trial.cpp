@@ -66,6 +66,43 @@ TrialResult runPhantomTrial(const TrialOptions& options) {
     navigation["dropout_start_s"] = options.navigation_s * 0.5;
     navigation["dropout_duration_s"] = std::min(0.5, options.navigation_s * 0.25);
   }
+  // The patient's data first, as a lab brings them to the case: the phantom's CT, its segmentation and the
+  // planned screws, imported and prepared (models, fiducials found in the CT) before the room's timeline starts.
+  nlohmann::json preparation = nlohmann::json::object();
+  bool prepared = false;
+  {
+    const fs::path scenario =
+        options.scenario.empty() ? resourceDirectory() / "scenarios" / "default.json" : options.scenario;
+    double spacing_mm = 0.8;
+    bool generated = true;
+    try {
+      std::ifstream in(scenario);
+      const auto j = nlohmann::json::parse(in);
+      const auto patient = j.value("patient", nlohmann::json::object());
+      generated = !options.simulated_room || patient.contains("generated_phantom");
+      if (generated) spacing_mm = patient["generated_phantom"].value("spacing_mm", spacing_mm);
+    } catch (const nlohmann::json::exception&) {
+      // mrsns-sim reports a broken scenario when the room starts.
+    }
+    if (generated) {
+      StepContext context;
+      context.cancel = options.context.cancel;
+      context.progress = [&](double f, const std::string& message) {
+        options.context.report(0.02 * f, "import-phantom: " + message);
+      };
+      try {
+        const auto r = runStep(session, "import-phantom", {{"spacing_mm", spacing_mm}, {"seed", seed}}, context);
+        prepared = r.ok;
+      } catch (const Error& e) {
+        session.log("error", std::string("import-phantom: ") + e.what());
+      }
+      preparation["import-phantom"] = session.step("import-phantom");
+    } else {
+      preparation["import-phantom"] = {{"status", "skipped"},
+                                       {"summary", "the scenario's patient is not the generated phantom: import its "
+                                                   "CT into the session before the registration"}};
+    }
+  }
   // The room: started first, since its timeline (pivot, then the fiducials, then the bone surface) runs from
   // its start; stopped once the live steps are done.
   std::unique_ptr<detail::SimulatedRoomProcess> room;
@@ -198,7 +235,8 @@ TrialResult runPhantomTrial(const TrialOptions& options) {
   TrialResult result;
   result.ok = true;
   result.folder = options.out;
-  nlohmann::json steps = nlohmann::json::object();
+  nlohmann::json steps = preparation;
+  if (!prepared) result.ok = false;
   nlohmann::json plus_steps = nlohmann::json::object();
   std::optional<Session> plus_session;
   for (std::size_t i = 0; i < plan.size(); ++i) {

@@ -8,6 +8,8 @@
 #include "mrsns/deformation/model_building.h"
 #include "mrsns/deformation/posterior.h"
 #include "mrsns/deformation/vessel_phantom.h"
+#include "mrsns/core/mesh_ops.h"
+#include "mrsns/io/mesh_io.h"
 #include "mrsns/registration/label_meshing.h"
 #include "mrsns/registration/phantom_cervical.h"
 #include "mrsns/rendering/scene.h"
@@ -30,29 +32,13 @@ Eigen::Vector3d vec(const Json& j) {
   return {j[0].get<double>(), j[1].get<double>(), j[2].get<double>()};
 }
 
-Eigen::Isometry3d isometry(const Json& j, const std::string& what) {
-  Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
-  t.matrix() = detail::matrixFromJson(j, what);
-  return t;
-}
 
-// The vertebrae as the registration step meshed them (same seed and spacing).
-TriangleMesh phantomBone(const Json& registration_params) {
-  registration::PhantomOptions phantom_options;
-  phantom_options.spacing_mm = registration_params.value("spacing_mm", 1.2);
-  phantom_options.seed = registration_params.value("seed", 1);
-  const auto phantom = registration::generateCervicalPhantom(phantom_options);
-  registration::LabelMeshOptions mesh_options;
-  mesh_options.scheme = registration::LabelScheme::Verse;
-  mesh_options.target_triangles = 4000;
-  TriangleMesh bone;
-  for (const auto& m : registration::meshLabelMap(phantom.bone_labels, mesh_options).meshes) {
-    const auto offset = static_cast<std::int32_t>(bone.vertices.rows());
-    bone.vertices.conservativeResize(bone.vertices.rows() + m.mesh.vertices.rows(), 3);
-    bone.vertices.bottomRows(m.mesh.vertices.rows()) = m.mesh.vertices;
-    bone.faces.conservativeResize(bone.faces.rows() + m.mesh.faces.rows(), 3);
-    bone.faces.bottomRows(m.mesh.faces.rows()) = m.mesh.faces.array() + offset;
-  }
+// The session's bone models in one mesh (CT mm); empty when it has none.
+TriangleMesh sessionBone(const Session& session) {
+  std::vector<TriangleMesh> meshes;
+  for (const auto& m : session.models(ModelRole::Bone)) meshes.push_back(io::readMesh(session.resolve(m.file)));
+  if (meshes.empty()) return {};
+  TriangleMesh bone = mergeMeshes(meshes);
   bone.frame = "CT";
   return bone;
 }
@@ -64,8 +50,8 @@ void posteriorCamera(rendering::Scene& scene, const Eigen::Vector3d& centre_ct, 
   scene.setCamera(world_T_ct * eye_ct, world_T_ct * centre_ct, world_T_ct.linear() * Eigen::Vector3d::UnitZ());
 }
 
-std::string registeredPhantom(const std::filesystem::path& folder, const Json& reg, const TriangleMesh& bone) {
-  const Eigen::Isometry3d patient_T_ct = isometry(reg["figures"]["transforms"]["CTToPatient"], "CTToPatient");
+std::string registeredPhantom(const std::filesystem::path& folder, const Eigen::Isometry3d& patient_T_ct,
+                              const std::vector<PlannedScrew>& plans, const TriangleMesh& bone) {
   rendering::Scene scene;
   scene.setBackground({0.12, 0.14, 0.18});
   // Translucent bone: the planned paths run inside it.
@@ -73,9 +59,9 @@ std::string registeredPhantom(const std::filesystem::path& folder, const Json& r
   scene.setPose("vertebrae", patient_T_ct);
   Eigen::Vector3d centre = Eigen::Vector3d::Zero();
   int n = 0;
-  for (const auto& path : reg["figures"]["paths"]) {
-    const Eigen::Vector3d entry = vec(path["entry_ct"]), target = vec(path["target_ct"]);
-    scene.setScrewPath(path["name"].get<std::string>(), patient_T_ct * entry, patient_T_ct * target, 3.5, kPlanned);
+  for (const auto& path : plans) {
+    const Eigen::Vector3d entry = path.entry, target = path.target;
+    scene.setScrewPath(path.name, patient_T_ct * entry, patient_T_ct * target, path.diameter_mm, kPlanned);
     centre += entry;
     ++n;
   }
@@ -86,7 +72,7 @@ std::string registeredPhantom(const std::filesystem::path& folder, const Json& r
   return name;
 }
 
-std::string placement(const std::filesystem::path& folder, const Json& reg, const Json& placed,
+std::string placement(const std::filesystem::path& folder, const std::vector<PlannedScrew>& plans, const Json& placed,
                       const TriangleMesh& bone) {
   rendering::Scene scene;
   scene.setBackground({0.12, 0.14, 0.18});
@@ -96,10 +82,10 @@ std::string placement(const std::filesystem::path& folder, const Json& reg, cons
   // Sub-millimetre deviations vanish inside a 3.5 mm screw: both axes are
   // also drawn 25 mm out of the entry, where an angle deviation shows.
   constexpr double kExtension = 25.0;
-  for (const auto& path : reg["figures"]["paths"]) {
-    const auto name = path["name"].get<std::string>();
-    const Eigen::Vector3d entry = vec(path["entry_ct"]), target = vec(path["target_ct"]);
-    scene.setScrewPath("planned " + name, entry, target, 3.5, kPlanned);
+  for (const auto& path : plans) {
+    const auto& name = path.name;
+    const Eigen::Vector3d entry = path.entry, target = path.target;
+    scene.setScrewPath("planned " + name, entry, target, path.diameter_mm, kPlanned);
     scene.setLine("planned axis " + name, entry - kExtension * (target - entry).normalized(), entry, kPlanned);
     centre += entry;
     ++n;
@@ -171,12 +157,16 @@ std::vector<std::string> writeTrialSnapshots(const std::filesystem::path& folder
   const Json reg = session.step("registration");
   const Json placed = session.step("robot-placement");
   const bool have_registration = !reg.is_null() && reg.value("status", "") == "ok";
-  if (have_registration) {
-    const auto bone = phantomBone(reg.value("params", Json::object()));
-    images.push_back(registeredPhantom(folder, reg, bone));
-    if (!placed.is_null() && placed.value("status", "") == "ok") images.push_back(placement(folder, reg, placed, bone));
+  const auto patient_T_ct = session.transform("CTToPatient");
+  const TriangleMesh bone = sessionBone(session);
+  if (have_registration && patient_T_ct && !bone.empty()) {
+    Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
+    t.matrix() = patient_T_ct->matrix;
+    const auto plans = session.plans();
+    images.push_back(registeredPhantom(folder, t, plans, bone));
+    if (!placed.is_null() && placed.value("status", "") == "ok") images.push_back(placement(folder, plans, placed, bone));
   } else {
-    logger()->warn("trial snapshots: registration did not succeed, no phantom or placement snapshot");
+    logger()->warn("trial snapshots: no registration of the session's bone models, no phantom or placement snapshot");
   }
   const Json reg_params = have_registration ? reg.value("params", Json::object()) : Json::object();
   images.push_back(softTissue(folder, reg_params.value("seed", 1)));

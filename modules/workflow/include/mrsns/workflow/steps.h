@@ -20,6 +20,10 @@ struct StepInfo {
   std::string title;  ///< "Patient registration"
   std::string area;   ///< "preparation" | "function" (paper 001 Fig. 4)
   std::string description;
+  /// Where the GUI lists it: "data" (the patient's images and models),
+  /// "planning" (fiducials and screws), "devices", "registration",
+  /// "calibration", "navigation".
+  std::string group;
 };
 
 struct StepContext {
@@ -45,9 +49,11 @@ struct StepResult {
   std::vector<std::string> outputs;                   ///< files written, relative to the session folder
 };
 
-/// connect-devices, us-spatial-calibration, us-temporal-calibration,
-/// robot-calibration, registration, hmd-calibration, navigation,
-/// robot-placement, in workflow order.
+/// Every step in workflow order: the patient's data (import-ct,
+/// import-label-map, make-models, import-model, shape-model), planning
+/// (find-fiducials, place-fiducial, plan-screw, import-plan, export-plan),
+/// then the devices, calibrations and registrations, navigation and the
+/// robot-assisted placement.
 std::vector<StepInfo> listSteps();
 
 /// Runs `step` on `session` with `params` (a JSON object; every parameter
