@@ -328,7 +328,7 @@ TEST_F(LiveNavigationTest, ExecutableWithoutArgumentsOpensTheSampleSession) {
   EXPECT_EQ(process.exitCode(), 0) << err.toStdString();
   EXPECT_TRUE(err.contains("sample-session")) << err.toStdString();
   EXPECT_TRUE(
-      fs::exists(scratch_ / "xdg-data" / "MR-SNS" / "mrsns" / "sample-session" / "registration" / "models" / "C5.vtp"));
+      fs::exists(scratch_ / "xdg-data" / "MR-SNS" / "mrsns" / "sample-session" / "models" / "C5.vtp"));
   const QImage image(QString::fromStdString(png.string()));
   ASSERT_FALSE(image.isNull()) << err.toStdString();
   EXPECT_EQ(image.size(), QSize(1280, 800));

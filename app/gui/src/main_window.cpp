@@ -28,9 +28,12 @@
 #include "mrsns/rendering/scene.h"
 #include "mrsns/rendering/slice_views.h"
 #include "mrsns/tracking/hologram_streamer.h"
+#include "mrsns/workflow/planning.h"
 #include "mrsns/workflow/session.h"
 #include "mrsns/workflow/steps.h"
 #include "output_panel.h"
+#include "planning_panel.h"
+#include "prep_dialogs.h"
 #include "session_import.h"
 #include "task_runner.h"
 
@@ -88,7 +91,8 @@ MainWindow::MainWindow(MainWindowOptions options, QWidget* parent) : QMainWindow
   output_ = new OutputPanel;
   std::vector<StepEntry> steps;
   for (const auto& info : workflow::listSteps()) {
-    steps.push_back(StepEntry{toQ(info.name), toQ(info.title), toQ(info.area), toQ(info.description)});
+    steps.push_back(
+        StepEntry{toQ(info.name), toQ(info.title), toQ(info.area), toQ(info.description), toQ(info.group)});
   }
   preparation_->setSteps(steps);
   function_->setSteps(steps);
@@ -104,10 +108,8 @@ MainWindow::MainWindow(MainWindowOptions options, QWidget* parent) : QMainWindow
   addDockWidget(Qt::RightDockWidgetArea, output_dock_);
   resizeDocks({preparation_dock_, output_dock_}, {350, 370}, Qt::Horizontal);
 
-  connect(preparation_, &PreparationPanel::runStepRequested, this,
-          [this](const QString& s) { runStep(s, deviceParams(s)); });
-  connect(function_, &FunctionPanel::runStepRequested, this,
-          [this](const QString& s) { runStep(s, deviceParams(s)); });
+  connect(preparation_, &PreparationPanel::runStepRequested, this, &MainWindow::requestStep);
+  connect(function_, &FunctionPanel::runStepRequested, this, &MainWindow::requestStep);
   connect(preparation_, &PreparationPanel::importRequested, this, &MainWindow::chooseAndImport);
   connect(preparation_, &PreparationPanel::pivotCalibrationRequested, this, &MainWindow::chooseAndRunPivot);
   connect(function_, &FunctionPanel::robotStopRequested, this, [this] {
@@ -155,6 +157,8 @@ MainWindow::MainWindow(MainWindowOptions options, QWidget* parent) : QMainWindow
     applyLayerVisibility(display_->scene(), layer, visible);
     display_->render();
   });
+
+  buildPlanning();
 
   connect(tasks_, &TaskRunner::started, this, &MainWindow::onTaskStarted);
   connect(tasks_, &TaskRunner::progressed, this, &MainWindow::onTaskProgress);
@@ -210,8 +214,23 @@ void MainWindow::buildMenus() {
       [this] { chooseAndImport(ImportKind::CtImage); });
   add(data, tr("Import &mesh…"), QKeySequence(QStringLiteral("Ctrl+M")), QStringLiteral("actionImportMesh"),
       [this] { chooseAndImport(ImportKind::Mesh); });
-  add(data, tr("Import &landmarks…"), QKeySequence(QStringLiteral("Ctrl+L")), QStringLiteral("actionImportLandmarks"),
-      [this] { chooseAndImport(ImportKind::Landmarks); });
+  add(data, tr("Import CT &DICOM folder…"), QKeySequence(QStringLiteral("Ctrl+Shift+I")),
+      QStringLiteral("actionImportDicom"), [this] { chooseAndImportDicom(); });
+  add(data, tr("Import la&bel map…"), QKeySequence(QStringLiteral("Ctrl+B")), QStringLiteral("actionImportLabels"),
+      [this] { chooseAndImportLabelMap(); });
+  add(data, tr("Make m&odels…"), QKeySequence(QStringLiteral("Ctrl+Shift+M")), QStringLiteral("actionMakeModels"),
+      [this] { chooseAndMakeModels(); });
+  add(data, tr("Import soft-tissue &shape model…"), QKeySequence(), QStringLiteral("actionImportShapeModel"),
+      [this] { chooseAndImportShapeModel(); });
+  add(data, tr("Import &landmarks as fiducials…"), QKeySequence(QStringLiteral("Ctrl+L")),
+      QStringLiteral("actionImportLandmarks"), [this] { chooseAndImport(ImportKind::Landmarks); });
+  add(data, tr("Phantom &patient data"), QKeySequence(), QStringLiteral("actionImportPhantom"),
+      [this] { runStep(QStringLiteral("import-phantom")); });
+  data->addSeparator();
+  add(data, tr("&New screw"), QKeySequence(QStringLiteral("Ctrl+Shift+N")), QStringLiteral("actionNewScrew"),
+      [this] { beginNewScrew(); });
+  add(data, tr("Place &fiducial"), QKeySequence(QStringLiteral("Ctrl+Shift+F")), QStringLiteral("actionPlaceFiducial"),
+      [this] { beginPlaceFiducial(); });
   add(data, tr("Import se&quence…"), QKeySequence(QStringLiteral("Ctrl+E")), QStringLiteral("actionImportSequence"),
       [this] { chooseAndImport(ImportKind::Sequence); });
 
@@ -221,14 +240,19 @@ void MainWindow::buildMenus() {
     // Ctrl+1..9 run the steps in the order of the paper's workflow.
     const QKeySequence keys = index < 9 ? QKeySequence(QStringLiteral("Ctrl+%1").arg(index + 1)) : QKeySequence();
     const QString name = toQ(info.name);
-    add(steps, toQ(info.title), keys, QStringLiteral("actionStep_") + name, [this, name] { runStep(name, deviceParams(name)); });
+    add(steps, toQ(info.title), keys, QStringLiteral("actionStep_") + name, [this, name] { requestStep(name); });
     ++index;
   }
   steps->addSeparator();
   add(steps, tr("Pivot calibration…"), QKeySequence(QStringLiteral("Ctrl+P")), QStringLiteral("actionPivot"),
       [this] { chooseAndRunPivot(); });
-  add(steps, tr("&Cancel running task"), QKeySequence(Qt::Key_Escape), QStringLiteral("actionCancel"),
-      [this] { cancelTask(); });
+  add(steps, tr("&Cancel running task"), QKeySequence(Qt::Key_Escape), QStringLiteral("actionCancel"), [this] {
+    if (placing_ != Placing::None) {
+      cancelPlacing();
+      return;
+    }
+    cancelTask();
+  });
   // What the operator confirms during a step (the HMD calibration's holds): a foot pedal is a key to the
   // workstation; F8 by default, as pedals ship configured to send a function key.
   add(steps, tr("C&onfirm (foot pedal)"), QKeySequence(Qt::Key_F8), QStringLiteral("actionConfirm"),
@@ -240,7 +264,10 @@ void MainWindow::buildMenus() {
   add(view, tr("&Reset camera"), QKeySequence(Qt::Key_Home), QStringLiteral("actionResetCamera"),
       [this] { display_->resetCamera(); });
   view->addSeparator();
-  for (auto* dock : {preparation_dock_, function_dock_, output_dock_}) view->addAction(dock->toggleViewAction());
+  for (auto* dock : {preparation_dock_, planning_dock_, function_dock_, output_dock_}) {
+    view->addAction(dock->toggleViewAction());
+  }
+  planning_dock_->toggleViewAction()->setShortcut(QKeySequence(QStringLiteral("Alt+4")));
   preparation_dock_->toggleViewAction()->setShortcut(QKeySequence(QStringLiteral("Alt+1")));
   function_dock_->toggleViewAction()->setShortcut(QKeySequence(QStringLiteral("Alt+2")));
   output_dock_->toggleViewAction()->setShortcut(QKeySequence(QStringLiteral("Alt+3")));
@@ -423,6 +450,14 @@ bool MainWindow::importFile(ImportKind kind, const QString& path) {
     return false;
   }
   if (refuseWhileBusy(tr("Import"))) return false;
+  // The patient's data go through their workflow steps, as `mrsns-cli session run` does.
+  switch (kind) {
+    case ImportKind::CtImage: return runStep(QStringLiteral("import-ct"), {{"path", path.toStdString()}});
+    case ImportKind::Mesh: return runStep(QStringLiteral("import-model"), {{"path", path.toStdString()}});
+    case ImportKind::Landmarks:
+      return runStep(QStringLiteral("find-fiducials"), {{"source", "file"}, {"path", path.toStdString()}});
+    case ImportKind::Sequence: break;
+  }
   const auto folder = session_->folder();
   const auto file = toPath(path);
   return tasks_->start(
@@ -438,6 +473,7 @@ bool MainWindow::runPivotCalibration(const QString& recording) {
 
 void MainWindow::onTaskStarted(const QString& name) {
   preparation_->setBusy(true);
+  planning_->setBusy(true);
   function_->setBusy(true);
   progress_->setValue(0);
   progress_->show();
@@ -453,6 +489,7 @@ void MainWindow::onTaskProgress(const QString& name, double fraction, const QStr
 
 void MainWindow::onTaskFinished(const QString& name, const TaskOutcome& outcome) {
   preparation_->setBusy(false);
+  planning_->setBusy(false);
   function_->setBusy(false);
   progress_->hide();
   cancel_->hide();
@@ -476,7 +513,7 @@ void MainWindow::onTaskFinished(const QString& name, const TaskOutcome& outcome)
     // Steps and imports change the session's data: show what it holds now.
     if (session_ && name != QLatin1String("pivot-calibration")) {
       try {
-        if (name.startsWith(QLatin1String("import-"))) recordImport(step, outcome);
+        if (name == QLatin1String("import-sequence")) recordImport(step, outcome);
         *session_ = workflow::Session::open(session_->folder());
       } catch (const mrsns::Error& e) {
         presentError(tr("Cannot reload the session"), QString::fromStdString(e.what()));
@@ -527,6 +564,68 @@ void MainWindow::chooseAndSaveSessionAs() {
 void MainWindow::chooseAndImport(ImportKind kind) {
   const QString path = QFileDialog::getOpenFileName(this, tr("Import"), QString(), importFileFilter(kind));
   if (!path.isEmpty()) importFile(kind, path);
+}
+
+void MainWindow::requestStep(const QString& step) {
+  // The steps that need the user's file or points ask for them first.
+  if (step == QLatin1String("import-ct")) return chooseAndImport(ImportKind::CtImage);
+  if (step == QLatin1String("import-label-map")) return chooseAndImportLabelMap();
+  if (step == QLatin1String("make-models")) return chooseAndMakeModels();
+  if (step == QLatin1String("import-model")) return chooseAndImport(ImportKind::Mesh);
+  if (step == QLatin1String("shape-model")) return chooseAndImportShapeModel();
+  if (step == QLatin1String("place-fiducial")) {
+    beginPlaceFiducial();
+    return;
+  }
+  if (step == QLatin1String("plan-screw")) {
+    beginNewScrew();
+    return;
+  }
+  if (step == QLatin1String("import-plan")) {
+    const QString path = QFileDialog::getOpenFileName(this, tr("Import plan"), QString(),
+                                                      tr("3D Slicer markups (*.mrk.json *.json);;All files (*)"));
+    if (!path.isEmpty()) runStep(step, {{"path", path.toStdString()}});
+    return;
+  }
+  if (step == QLatin1String("export-plan")) {
+    const QString path = QFileDialog::getSaveFileName(this, tr("Export plan"), QStringLiteral("Plan.mrk.json"),
+                                                      tr("3D Slicer markups (*.mrk.json)"));
+    if (!path.isEmpty()) runStep(step, {{"path", path.toStdString()}});
+    return;
+  }
+  runStep(step, deviceParams(step));
+}
+
+void MainWindow::chooseAndImportDicom() {
+  const QString folder = QFileDialog::getExistingDirectory(this, tr("Import CT: DICOM series folder"));
+  if (folder.isEmpty()) return;
+  try {
+    if (const auto params = askDicomSeries(this, folder)) runStep(QStringLiteral("import-ct"), *params);
+  } catch (const mrsns::Error& e) {
+    presentError(tr("Import CT"), QString::fromStdString(e.what()));
+  }
+}
+
+void MainWindow::chooseAndImportLabelMap() {
+  if (!session_) {
+    presentError(tr("Import label map"), tr("No session is open. Open or create a session first."));
+    return;
+  }
+  if (const auto params = askLabelMapImport(this, *session_)) runStep(QStringLiteral("import-label-map"), *params);
+}
+
+void MainWindow::chooseAndMakeModels() {
+  if (!session_) {
+    presentError(tr("Make models"), tr("No session is open. Open or create a session first."));
+    return;
+  }
+  if (const auto params = askMakeModels(this, *session_)) runStep(QStringLiteral("make-models"), *params);
+}
+
+void MainWindow::chooseAndImportShapeModel() {
+  const QString path = QFileDialog::getOpenFileName(this, tr("Soft-tissue shape model"), QString(),
+                                                    tr("statismo models (*.h5);;All files (*)"));
+  if (!path.isEmpty()) runStep(QStringLiteral("shape-model"), {{"path", path.toStdString()}});
 }
 
 void MainWindow::chooseAndRunPivot() {

@@ -14,8 +14,12 @@
 #include <string>
 #include <vector>
 
+#include <Eigen/Core>
+
 #include "mrsns/core/mesh.h"
+#include "mrsns/workflow/session_document.h"
 #include "preparation_panel.h"
+#include "session_import.h"
 #include "step_list.h"
 
 class QLabel;
@@ -26,6 +30,7 @@ class QDockWidget;
 
 namespace mrsns::workflow {
 class Session;
+class PlanningAnatomyCache;
 struct NavigationOptions;
 }  // namespace mrsns::workflow
 namespace mrsns::tracking {
@@ -43,6 +48,7 @@ class FunctionPanel;
 class LiveNavigation;
 class MessagePresenter;
 class OutputPanel;
+class PlanningPanel;
 class SimulatedRoom;
 class TaskRunner;
 struct TaskOutcome;
@@ -121,6 +127,22 @@ class MainWindow : public QMainWindow {
   [[nodiscard]] QStringList recentSessions() const;
 
   OutputPanel* outputPanel() const { return output_; }
+  PlanningPanel* planningPanel() const { return planning_; }
+
+  // Planning on the slices and the 3D view (main_window_planning.cpp). The
+  // session's plan is changed on the GUI thread, in milliseconds, through
+  // workflow::savePlannedScrew with the window's cached anatomy; refused
+  // (with a message) while a task or navigation uses the session.
+  /// Starts placing a new screw: the next two picks are its entry and target.
+  bool beginNewScrew();
+  /// Starts placing a fiducial: the next pick is its position.
+  bool beginPlaceFiducial();
+  /// Stops placing (Esc).
+  void cancelPlacing();
+  /// Adds or replaces a screw as the planning panel does; false with a message when refused.
+  bool planScrew(const workflow::PlannedScrew& screw, const std::string& replaces = {});
+  /// The plan as the window shows it (a dragged screw's live figures included).
+  [[nodiscard]] std::vector<workflow::PlannedScrew> shownPlan() const { return shown_plan_; }
   PreparationPanel* preparationPanel() const { return preparation_; }
   FunctionPanel* functionPanel() const { return function_; }
   DisplayArea* displayArea() const { return display_; }
@@ -165,8 +187,23 @@ class MainWindow : public QMainWindow {
   void chooseAndCreateSession();
   void chooseAndSaveSessionAs();
   void chooseAndImport(ImportKind kind);
+  /// A step asked for from a panel or the Workflow menu: the ones that need the user's file or points ask first.
+  void requestStep(const QString& step);
+  void chooseAndImportDicom();
+  void chooseAndImportLabelMap();
+  void chooseAndMakeModels();
+  void chooseAndImportShapeModel();
   void chooseAndRunPivot();
   void showShortcuts();
+  void buildPlanning();
+  void refreshPlanning();
+  void refreshScenePlan();
+  void updateSliceOverlays();
+  void showTrajectory();
+  workflow::PlanningAnatomyCache* planningAnatomy();
+  void onPicked(const Eigen::Vector3d& p_lps);
+  void onScrewEndDragged(std::size_t screw, int end, const Eigen::Vector3d& p_lps, bool released);
+  bool refusePlanningEdit(const QString& what);
 
   MainWindowOptions options_;
   std::shared_ptr<MessagePresenter> presenter_;
@@ -191,6 +228,15 @@ class MainWindow : public QMainWindow {
   QLabel* sim_label_ = nullptr;  // SIMULATED banner while mrsns-sim runs
   SimulatedRoom* sim_room_ = nullptr;
   QMenu* recent_menu_ = nullptr;
+  PlanningPanel* planning_ = nullptr;
+  QDockWidget* planning_dock_ = nullptr;
+  SceneFileCache scene_cache_;
+  std::unique_ptr<workflow::PlanningAnatomyCache> anatomy_;
+  std::string anatomy_key_;  // which models the cached anatomy was built from
+  std::vector<workflow::PlannedScrew> shown_plan_;
+  enum class Placing { None, ScrewEntry, ScrewTarget, Fiducial };
+  Placing placing_ = Placing::None;
+  Eigen::Vector3d placing_entry_ = Eigen::Vector3d::Zero();
   std::unique_ptr<igtlink::Server> stream_server_;
   std::unique_ptr<tracking::HologramStreamer> streamer_;
   int hologram_port_ = 0;  // the stream the user asked for (0: off), kept across navigation start/stop

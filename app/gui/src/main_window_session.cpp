@@ -40,23 +40,12 @@ std::filesystem::path toPath(const QString& s) {
 /// Planned screws enter from behind (+y in LPS): the home view looks at
 /// their centre from posterior, lateral and superior (superior up), far
 /// enough to keep the vertebrae around them in view. None without a plan.
-std::optional<DisplayArea::HomeView> homeViewOnPaths(const nlohmann::json& state,
+std::optional<DisplayArea::HomeView> homeViewOnPaths(const workflow::Session& session,
                                                      const std::map<std::string, TriangleMesh>& meshes) {
   std::vector<Eigen::Vector3d> points;
-  if (state.contains("steps") && state["steps"].is_object()) {
-    for (const auto& [step, record] : state["steps"].items()) {
-      if (!record.is_object() || !record.contains("figures") || !record["figures"].is_object()) continue;
-      const auto& figures = record["figures"];
-      if (!figures.contains("paths") || !figures["paths"].is_array()) continue;
-      for (const auto& path : figures["paths"]) {
-        for (const char* key : {"entry_ct", "target_ct"}) {
-          if (!path.is_object() || !path.contains(key) || !path[key].is_array() || path[key].size() != 3) continue;
-          const auto& v = path[key];
-          if (v[0].is_number() && v[1].is_number() && v[2].is_number())
-            points.emplace_back(v[0].get<double>(), v[1].get<double>(), v[2].get<double>());
-        }
-      }
-    }
+  for (const auto& screw : session.plans()) {
+    points.push_back(screw.entry);
+    points.push_back(screw.target);
   }
   if (points.empty()) return std::nullopt;
   Eigen::Vector3d centre = Eigen::Vector3d::Zero();
@@ -125,21 +114,20 @@ bool MainWindow::openSampleSession() {
       std::filesystem::create_directories(copy.parent_path());
       std::filesystem::copy(workflow::sampleSessionPath(), copy, std::filesystem::copy_options::recursive);
     }
-    // The sample's phantom is generated on demand, never stored: a fresh copy
-    // would open to an empty view. Patient registration generates it and
-    // writes its models (C3-C7, vessel, soft tissue) and screw plans, in
-    // about half a second, so the sample opens showing them.
+    // The sample's patient is the cervical phantom, generated on demand and never stored: a fresh copy would
+    // open to an empty view. Its patient data (CT, segmentation, models, fiducials found in the CT, plan) are
+    // imported into the copy, in about two seconds, so the sample opens showing them.
     workflow::Session sample = workflow::Session::open(copy);
-    if (!sample.state()["steps"].contains("registration")) {
+    if (!sample.ct()) {
       QApplication::setOverrideCursor(Qt::WaitCursor);
       try {
-        workflow::runStep(sample, "registration", nlohmann::json::object());
+        workflow::runStep(sample, "import-phantom", {{"spacing_mm", 1.0}});
       } catch (...) {
         QApplication::restoreOverrideCursor();
         throw;
       }
       QApplication::restoreOverrideCursor();
-      sample.log("info", "mrsns: ran Patient registration on the fresh sample copy to show its models");
+      sample.log("info", "mrsns: imported the phantom patient's data into the fresh sample copy");
     }
   } catch (const mrsns::Error& e) {
     presentError(tr("Cannot open the sample session"), QString::fromStdString(e.what()));
@@ -234,7 +222,7 @@ void MainWindow::populateScene() {
   auto& scene = display_->scene();
   scene.clear();
   try {
-    meshes_ = loadSessionScene(*session_, scene, display_->slices());
+    meshes_ = loadSessionScene(*session_, scene, display_->slices(), scene_cache_);
   } catch (const mrsns::Error& e) {
     presentError(tr("Some session data could not be shown"), QString::fromStdString(e.what()));
   }
@@ -245,7 +233,8 @@ void MainWindow::populateScene() {
   // Without a CT the slice views would be three black boxes: give the 3D view the room.
   display_->setSliceViewsVisible(function_->layerVisible(DisplayLayer::SliceViews) && display_->slices().hasVolume());
   live_->addTools();  // the scene was cleared under a running navigation
-  display_->setHomeView(homeViewOnPaths(session_->state(), meshes_));
+  display_->setHomeView(homeViewOnPaths(*session_, meshes_));
+  refreshPlanning();
   display_->resetCamera();
 }
 

@@ -42,6 +42,8 @@ PreparationPanel::PreparationPanel(QWidget* parent) : QWidget(parent) {
   }
   layout->addWidget(import);
 
+  data_ = new StepList(tr("Patient data"), this);
+  planning_ = new StepList(tr("Planning"), this);
   devices_ = new StepList(tr("Devices"), this);
   registration_ = new StepList(tr("Registration"), this);
   calibration_ = new StepList(tr("Calibration"), this);
@@ -52,20 +54,22 @@ PreparationPanel::PreparationPanel(QWidget* parent) : QWidget(parent) {
   calibration_->addWidgetRow(pivot);
   import_buttons_.push_back(pivot);
   connect(pivot, &QPushButton::clicked, this, &PreparationPanel::pivotCalibrationRequested);
-  for (auto* list : {devices_, registration_, calibration_}) {
+  for (auto* list : {data_, planning_, devices_, registration_, calibration_}) {
     layout->addWidget(list);
     connect(list, &StepList::runRequested, this, &PreparationPanel::runStepRequested);
+    list->hide();
   }
-  devices_->hide();
   layout->addStretch(1);
 }
 
 void PreparationPanel::setSteps(const std::vector<StepEntry>& steps) {
   for (const auto& step : steps) {
     if (step.area != QLatin1String("preparation")) continue;
-    StepList* list = step.name.contains(QLatin1String("calibration"))    ? calibration_
-                     : step.name.contains(QLatin1String("registration")) ? registration_
-                                                                         : devices_;
+    StepList* list = step.group == QLatin1String("data")           ? data_
+                     : step.group == QLatin1String("planning")     ? planning_
+                     : step.group == QLatin1String("calibration")  ? calibration_
+                     : step.group == QLatin1String("registration") ? registration_
+                                                                   : devices_;
     if (list->hasStep(step.name)) continue;
     list->addStep(step);
     list->show();
@@ -79,11 +83,11 @@ void PreparationPanel::setSessionText(const QString& name, const QString& folder
 }
 
 void PreparationPanel::setStepState(const QString& step, StepState state, const QString& detail) {
-  for (auto* list : {devices_, registration_, calibration_}) list->setStepState(step, state, detail);
+  for (auto* list : {data_, planning_, devices_, registration_, calibration_}) list->setStepState(step, state, detail);
 }
 
 void PreparationPanel::setBusy(bool busy) {
-  for (auto* list : {devices_, registration_, calibration_}) list->setBusy(busy);
+  for (auto* list : {data_, planning_, devices_, registration_, calibration_}) list->setBusy(busy);
   for (auto* button : import_buttons_) button->setEnabled(!busy);
 }
 

@@ -31,6 +31,8 @@ class PreparationPanel : public QWidget {
 
  private:
   QLabel* session_label_ = nullptr;
+  StepList* data_ = nullptr;
+  StepList* planning_ = nullptr;
   StepList* devices_ = nullptr;
   StepList* registration_ = nullptr;
   StepList* calibration_ = nullptr;

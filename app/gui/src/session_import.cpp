@@ -14,67 +14,13 @@
 #include "mrsns/io/sequence_file.h"
 #include "mrsns/rendering/scene.h"
 #include "mrsns/rendering/slice_views.h"
+#include "mrsns/rendering/tool_models.h"
 #include "mrsns/workflow/session.h"
 
 namespace mrsns::gui {
 namespace fs = std::filesystem;
 
 namespace {
-
-bool isMeshFile(const fs::path& p) {
-  const std::string name = io::lowerFileName(p);
-  for (const char* ext : {".stl", ".vtp", ".vtk", ".obj", ".ply"}) {
-    if (io::endsWith(name, ext)) return true;
-  }
-  return false;
-}
-
-bool isSequenceFile(const fs::path& p) {
-  const std::string name = io::lowerFileName(p);
-  return io::endsWith(name, ".seq.nrrd") || io::endsWith(name, ".seq.mha") || io::endsWith(name, ".seq.mhd");
-}
-
-bool isVolumeFile(const fs::path& p) {
-  if (isSequenceFile(p)) return false;
-  const std::string name = io::lowerFileName(p);
-  for (const char* ext : {".nrrd", ".nhdr", ".nii", ".nii.gz", ".mha", ".mhd"}) {
-    if (io::endsWith(name, ext)) return true;
-  }
-  return false;
-}
-
-bool isSoftTissue(const std::string& lower_name) {
-  for (const char* word : {"tissue", "soft", "skin", "muscle", "vessel", "artery", "posterior", "shape"}) {
-    if (lower_name.find(word) != std::string::npos) return true;
-  }
-  return false;
-}
-
-bool isVessel(const std::string& lower_name) {
-  for (const char* word : {"vessel", "artery", "carotid", "vein"}) {
-    if (lower_name.find(word) != std::string::npos) return true;
-  }
-  return false;
-}
-
-/// Every string in the state (recursively), in document order without repeats.
-void collectStrings(const nlohmann::json& j, std::vector<std::string>& out, std::set<std::string>& seen) {
-  if (j.is_string()) {
-    const auto& s = j.get_ref<const std::string&>();
-    if (!s.empty() && s.size() < 1024 && seen.insert(s).second) out.push_back(s);
-  } else if (j.is_structured()) {
-    for (const auto& e : j) collectStrings(e, out, seen);
-  }
-}
-
-std::optional<Eigen::Vector3d> vector3(const nlohmann::json& object, const char* key) {
-  if (!object.is_object() || !object.contains(key)) return std::nullopt;
-  const auto& v = object[key];
-  if (!v.is_array() || v.size() != 3 || !v[0].is_number() || !v[1].is_number() || !v[2].is_number()) {
-    return std::nullopt;
-  }
-  return Eigen::Vector3d(v[0].get<double>(), v[1].get<double>(), v[2].get<double>());
-}
 
 void report(const TaskControl& control, double fraction, const std::string& message) {
   if (control.progress) control.progress(fraction, message);
@@ -105,38 +51,19 @@ std::string importRecordName(ImportKind kind) {
 
 TaskOutcome importIntoSession(ImportKind kind, const fs::path& file, const fs::path& session_folder,
                               const TaskControl& control) {
+  if (kind != ImportKind::Sequence) {
+    throw InvalidArgumentError("Import: CT images, models and landmarks are imported by their workflow steps "
+                               "(import-ct, import-model, find-fiducials)");
+  }
   if (!fs::is_regular_file(file)) {
     throw FileError("Import: '" + file.string() + "' is not a readable file. Choose an existing file.");
   }
   TaskOutcome outcome;
   report(control, 0.1, "reading " + file.filename().string());
   auto& f = outcome.figures;
-  switch (kind) {
-    case ImportKind::CtImage: {
-      const auto read = io::readImageFile(file);
-      f["size_px"] = {read.image.size[0], read.image.size[1], read.image.size[2]};
-      f["spacing_mm"] = {read.image.spacing.x(), read.image.spacing.y(), read.image.spacing.z()};
-      f["format"] = io::imageFormatName(read.format);
-      break;
-    }
-    case ImportKind::Mesh: {
-      const auto mesh = io::readMesh(file);
-      f["vertices"] = mesh.vertexCount();
-      f["triangles"] = mesh.faceCount();
-      break;
-    }
-    case ImportKind::Landmarks: {
-      const auto read = io::readLandmarksFile(file);
-      f["points"] = read.landmarks.size();
-      break;
-    }
-    case ImportKind::Sequence: {
-      const auto sequence = io::readSequenceHeader(file);
-      f["frames"] = sequence.frames.size();
-      f["transforms"] = sequence.transformNames();
-      break;
-    }
-  }
+  const auto sequence = io::readSequenceHeader(file);
+  f["frames"] = sequence.frames.size();
+  f["transforms"] = sequence.transformNames();
   if (control.cancel && control.cancel->load()) {
     outcome.summary = QStringLiteral("import cancelled");
     return outcome;
@@ -160,79 +87,109 @@ TaskOutcome importIntoSession(ImportKind kind, const fs::path& file, const fs::p
   return outcome;
 }
 
-std::map<std::string, TriangleMesh> loadSessionScene(const workflow::Session& session, rendering::Scene& scene,
-                                                     rendering::SliceViews& slices) {
-  std::vector<std::string> strings;
-  std::set<std::string> seen;
-  collectStrings(session.state(), strings, seen);
-  std::map<std::string, TriangleMesh> meshes;
-  std::vector<std::string> problems;
-  bool have_volume = false;
-  int path_index = 0;
-  for (const auto& s : strings) {
-    fs::path file;
-    std::error_code ec;
-    try {
-      file = session.resolve(s);
-    } catch (const mrsns::Error&) {
-      continue;  // not a path inside the session
+const TriangleMesh& SceneFileCache::mesh(const fs::path& file) {
+  std::error_code ec;
+  const auto stamp = fs::last_write_time(file, ec);
+  if (ec) throw FileError("'" + file.string() + "' is missing from the session folder: make or import it again");
+  auto it = meshes_.find(file.string());
+  if (it == meshes_.end() || it->second.first != stamp) {
+    it = meshes_.insert_or_assign(file.string(), std::make_pair(stamp, io::readMesh(file))).first;
+  }
+  return it->second.second;
+}
+
+bool SceneFileCache::volumeChanged(const fs::path& file) {
+  std::error_code ec;
+  const auto stamp = fs::last_write_time(file, ec);
+  const bool changed = volume_file_ != file.string() || volume_stamp_ != stamp;
+  volume_file_ = file.string();
+  volume_stamp_ = stamp;
+  return changed;
+}
+
+void SceneFileCache::forgetVolume() {
+  volume_file_.clear();
+}
+
+std::string sceneName(const workflow::ModelEntry& model) {
+  switch (model.role) {
+    case workflow::ModelRole::Bone:
+    case workflow::ModelRole::Fiducial: return "vertebra:" + model.id;
+    default: return "tissue:" + model.id;
+  }
+}
+
+Eigen::Vector3d screwColor(const workflow::PlannedScrew& screw) {
+  // The plan's own figures colour it: green in bone, amber for a small breach or a close structure, red beyond.
+  const auto& f = screw.figures;
+  std::string grade = "A";
+  if (f.contains("breach") && f["breach"].is_object()) grade = f["breach"].value("grade", "A");
+  bool cuts = false;
+  if (f.contains("clearance") && f["clearance"].is_object()) {
+    for (const char* kind : {"vessel", "neural"}) {
+      if (f["clearance"].contains(kind) && f["clearance"][kind].is_object() &&
+          f["clearance"][kind].value("min_clearance_mm", 1e9) < 0.0) {
+        cuts = true;
+      }
     }
-    if (!fs::is_regular_file(file, ec)) continue;
-    const std::string lower = io::lowerFileName(file);
+  }
+  if (cuts || grade >= "C") return {0.95, 0.25, 0.2};
+  if (grade == "B") return {0.95, 0.75, 0.2};
+  return {0.30, 0.85, 0.45};
+}
+
+std::map<std::string, TriangleMesh> loadSessionScene(const workflow::Session& session, rendering::Scene& scene,
+                                                     rendering::SliceViews& slices, SceneFileCache& cache) {
+  std::map<std::string, TriangleMesh> for_headset;
+  std::vector<std::string> problems;
+  if (!session.ct() && slices.hasVolume()) {
+    slices.clearVolume();
+    cache.forgetVolume();
+  }
+  if (const auto ct = session.ct()) {
     try {
-      if (isMeshFile(file)) {
-        TriangleMesh mesh = io::readMesh(file);
-        const bool tissue = isSoftTissue(lower);
-        const std::string name = (tissue ? "tissue:" : "vertebra:") + file.stem().string();
-        // Vessels belong to the soft-tissue layer but are opaque red: they are
-        // what the drill must avoid, so they must not fade into the tissue.
-        const bool vessel = isVessel(lower);
-        const Eigen::Vector3d color = vessel   ? Eigen::Vector3d(0.80, 0.10, 0.10)
-                                      : tissue ? Eigen::Vector3d(0.85, 0.45, 0.42)
-                                               : Eigen::Vector3d(0.93, 0.89, 0.80);
-        scene.setMesh(name, mesh, color, vessel ? 1.0 : (tissue ? 0.25 : 1.0));
-        meshes[name] = std::move(mesh);
-      } else if (!have_volume && isVolumeFile(file) && lower.find("label") == std::string::npos) {
+      const fs::path file = session.resolve(ct->file);
+      if (cache.volumeChanged(file) || !slices.hasVolume()) {
         slices.setVolume(io::readImage(file));
-        have_volume = true;
-      } else if (io::endsWith(lower, ".mrk.json")) {
-        // Screw plans are Line markups; fiducial markups are not drawn.
-        std::vector<io::MarkupsLine> lines;
-        try {
-          lines = io::readMarkupsLines(file);
-        } catch (const FormatError&) {
-          continue;
-        }
-        for (const auto& line : lines) {
-          scene.setScrewPath("path:" + (line.name.empty() ? std::to_string(path_index) : line.name), line.start,
-                             line.end, 3.5, Eigen::Vector3d(0.30, 0.75, 0.95));
-          ++path_index;
-        }
+        slices.setWindowLevel(400.0, 40.0);
       }
     } catch (const mrsns::Error& e) {
+      cache.forgetVolume();
       problems.push_back(e.what());
     }
   }
-  // Planned screw paths recorded by the steps (e.g. registration's
-  // figures.paths: name, entry_ct, target_ct in CT mm).
-  const auto& steps = session.state().contains("steps") ? session.state()["steps"] : nlohmann::json::object();
-  for (const auto& [step, record] : steps.items()) {
-    if (!record.is_object() || !record.contains("figures") || !record["figures"].is_object()) continue;
-    const auto& figures = record["figures"];
-    if (!figures.contains("paths") || !figures["paths"].is_array()) continue;
-    for (const auto& path : figures["paths"]) {
-      const auto entry = vector3(path, "entry_ct");
-      const auto target = vector3(path, "target_ct");
-      if (!entry || !target) continue;
-      const std::string name = path.value("name", std::to_string(path_index));
-      scene.setScrewPath("path:" + name, *entry, *target, 3.5, Eigen::Vector3d(0.30, 0.75, 0.95));
-      // The approach axis 30 mm out of the entry: the screw itself runs inside
-      // the bone, the axis shows from outside where the drill must come from.
-      if ((*target - *entry).norm() > 1e-6) {
-        const Eigen::Vector3d out = *entry - 30.0 * (*target - *entry).normalized();
-        scene.setScrewPath("path:" + name + " approach", out, *entry, 1.2, Eigen::Vector3d(0.30, 0.75, 0.95));
-      }
-      ++path_index;
+  for (const auto& model : session.models()) {
+    try {
+      const std::string name = sceneName(model);
+      const TriangleMesh& mesh = cache.mesh(session.resolve(model.file));
+      // Vessels and nerves stay opaque: they are what the drill must avoid, so they must not fade into the tissue.
+      scene.setMesh(name, mesh, model.color, model.opacity);
+      scene.setVisible(name, model.visible);
+      TriangleMesh light = model.hmd_file.empty() ? mesh : cache.mesh(session.resolve(model.hmd_file));
+      light.frame = "CT";
+      for_headset[name] = std::move(light);
+    } catch (const mrsns::Error& e) {
+      problems.push_back("model " + model.id + ": " + e.what());
+    }
+  }
+  for (const auto& screw : session.plans()) {
+    try {
+      const Eigen::Vector3d direction = (screw.target - screw.entry).normalized();
+      const double length = screw.length_mm > 0.0 ? screw.length_mm : (screw.target - screw.entry).norm();
+      const Eigen::Vector3d tip = screw.entry + length * direction;
+      const Eigen::Vector3d rgb = screwColor(screw);
+      scene.setScrewPath("path:" + screw.name, screw.entry, tip, screw.diameter_mm, rgb);
+      // The approach axis 30 mm out of the entry: the screw itself runs inside the bone, the axis shows from
+      // outside where the drill must come from.
+      scene.setScrewPath("path:" + screw.name + " approach", screw.entry - 30.0 * direction, screw.entry, 1.2, rgb);
+    } catch (const mrsns::Error& e) {
+      problems.push_back("screw " + screw.name + ": " + e.what());
+    }
+  }
+  if (const auto fiducials = session.fiducials()) {
+    for (const auto& f : fiducials->points) {
+      scene.setMesh("path:fiducial " + f.label, rendering::sphereMesh(f.position_ct, 1.5),
+                    Eigen::Vector3d(0.3, 0.8, 1.0), 1.0);
     }
   }
   if (!problems.empty()) {
@@ -241,7 +198,7 @@ std::map<std::string, TriangleMesh> loadSessionScene(const workflow::Session& se
     text += "\nThe rest of the session is usable; re-import or regenerate these files.";
     throw FormatError(text);
   }
-  return meshes;
+  return for_headset;
 }
 
 void applyLayerVisibility(rendering::Scene& scene, DisplayLayer layer, bool visible) {

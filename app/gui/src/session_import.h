@@ -14,6 +14,8 @@
 #include "preparation_panel.h"
 #include "task_runner.h"
 
+#include "mrsns/workflow/session_document.h"
+
 namespace mrsns::workflow {
 class Session;
 }
@@ -35,12 +37,41 @@ std::string importRecordName(ImportKind kind);
 TaskOutcome importIntoSession(ImportKind kind, const std::filesystem::path& file,
                               const std::filesystem::path& session_folder, const TaskControl& control);
 
-/// Shows every mesh, CT volume and planned path the session refers to (any
-/// string in its state naming an existing file of a known kind). Scene
-/// object names carry their layer as a prefix ("vertebra:", "tissue:",
-/// "path:", "tool:", "us:"). Returns the meshes shown, by scene name.
+/// What the scene has read from the session folder, kept while the files do
+/// not change, so a session reloaded after a small change (a planned screw)
+/// does not read every mesh and the CT again.
+class SceneFileCache {
+ public:
+  /// The mesh in `file`, read again only when the file changed.
+  const TriangleMesh& mesh(const std::filesystem::path& file);
+  /// True (and remembered) when the CT file is not the one shown last.
+  bool volumeChanged(const std::filesystem::path& file);
+  void forgetVolume();
+
+ private:
+  std::map<std::string, std::pair<std::filesystem::file_time_type, TriangleMesh>> meshes_;
+  std::string volume_file_;
+  std::filesystem::file_time_type volume_stamp_{};
+};
+
+/// The scene name of a model: its layer as a prefix ("vertebra:" for bone and
+/// fiducial models, "tissue:" for soft tissue, vessels and nerves) and its id.
+std::string sceneName(const workflow::ModelEntry& model);
+
+/// The colour a planned screw is drawn in, from its figures: green in bone,
+/// amber for a breach under 2 mm (Gertzbein-Robbins B), red beyond or when it
+/// cuts a vessel or a nerve.
+Eigen::Vector3d screwColor(const workflow::PlannedScrew& screw);
+
+/// Shows what the session's document holds: the CT in the slice views, each
+/// model with its colour, opacity and visibility, the planned screws
+/// ("path:<name>", coloured by their figures) and the fiducials. Scene object
+/// names carry their layer as a prefix ("vertebra:", "tissue:", "path:",
+/// "tool:", "us:"). Returns the meshes for the headset (each model's light
+/// copy when it has one), by scene name. Throws FormatError listing the files
+/// that could not be shown (the rest is shown).
 std::map<std::string, TriangleMesh> loadSessionScene(const workflow::Session& session, rendering::Scene& scene,
-                                                     rendering::SliceViews& slices);
+                                                     rendering::SliceViews& slices, SceneFileCache& cache);
 
 /// Shows or hides every scene object of a layer.
 void applyLayerVisibility(rendering::Scene& scene, DisplayLayer layer, bool visible);

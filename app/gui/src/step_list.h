@@ -18,6 +18,7 @@ struct StepEntry {
   QString title;  ///< what the user reads
   QString area;   ///< "preparation" or "function"
   QString description;
+  QString group;  ///< "data", "planning", "devices", "registration", "calibration", "navigation"
 };
 
 enum class StepState { NotRun, Running, Done, Failed, Cancelled };
