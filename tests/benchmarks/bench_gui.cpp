@@ -16,7 +16,18 @@
 // the simulated tracker started) plus the tracker's start (see below:
 // latencies are lower bounds exact to the run's smallest latency).
 //
-//   xvfb-run -a build/tests/benchmarks/mrsns_bench_gui
+// BM_SliceScrolling, BM_ScrewDragging (issue 17): the workstation at
+// 1280x800 on a clinical-size CT (large_ct_case.h: 512 x 512 x 400 voxels
+// from the real CT, L1-L4, the aorta, IVC and spinal cord meshed, bilateral
+// screws at L1 and L2 planned). Scrolling: one wheel step on the axial view
+// per iteration, as a wheel event does it (the slice moves one voxel, the
+// three slice views and the crosshair re-rendered). Dragging: the L1 left
+// screw's entry dragged on the axial view one pixel per mouse move, each
+// move as the mouse does it (the screw's figures recomputed on the anatomy,
+// the 3D view, the slices and the trajectory view re-rendered). Frames per
+// second are iterations per second; the goal is 30 on Mesa llvmpipe.
+//
+//   xvfb-run -a -s "-screen 0 1920x1080x24" build/tests/benchmarks/mrsns_bench_gui
 #include <benchmark/benchmark.h>
 #include <unistd.h>
 
@@ -29,10 +40,15 @@
 #include <atomic>
 #include <chrono>
 #include <filesystem>
+#include <memory>
 #include <mutex>
+#include <optional>
+#include <string>
 #include <vector>
 
 #include "display_area.h"
+#include "large_ct_case.h"
+#include "mrsns/rendering/slice_views.h"
 #include "main_window.h"
 #include "message_presenter.h"
 #include "mrsns/igtlink/client.h"
@@ -221,6 +237,114 @@ void BM_HologramLatencyWhileRendering(benchmark::State& state) {
   }
 }
 BENCHMARK(BM_HologramLatencyWhileRendering)->Arg(5000)->Iterations(1)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+/// A session on the large CT with its models and four screws, made once per run.
+fs::path planningSession(std::string& why) {
+  static fs::path made;
+  if (!made.empty()) return made;
+  const auto c = bench::largeCtCase(why);
+  if (!c) return {};
+  const fs::path dir = sampleCopy().parent_path() / "planning";
+  fs::remove_all(dir);
+  auto s = workflow::Session::create(dir);
+  const workflow::StepContext quiet;
+  bool ok = workflow::runStep(s, "import-ct", {{"path", c->ct.string()}}, quiet).ok &&
+            workflow::runStep(s, "import-label-map", {{"path", c->labels.string()}}, quiet).ok &&
+            workflow::runStep(s, "make-models", {{"labels", "L1,L2,L3,L4,aorta,inferior_vena_cava,spinal_cord"}}, quiet)
+                .ok;
+  const char* screws[][3] = {{"L1 left", "25.5,-84,382", "5.5,-134,382"},
+                             {"L1 right", "-18.5,-84,382", "1.5,-134,382"},
+                             {"L2 left", "24,-92,350", "10,-142,356"},
+                             {"L2 right", "-17,-93,355", "-5,-143,358"}};
+  for (const auto& screw : screws) {
+    ok = ok && workflow::runStep(s, "plan-screw",
+                                 {{"name", screw[0]}, {"entry", screw[1]}, {"target", screw[2]}, {"diameter_mm", 6.0},
+                                  {"length_mm", 45.0}},
+                                 quiet)
+                   .ok;
+  }
+  if (!ok) {
+    why = "the planning session on the large CT could not be made";
+    return {};
+  }
+  made = dir;
+  return made;
+}
+
+/// The window at 1280x800 on the planning session, shown, with the slice views at L1; null (and `why`) when not.
+std::unique_ptr<gui::MainWindow> planningWindow(std::string& why) {
+  app();
+  const fs::path folder = planningSession(why);
+  if (folder.empty()) return nullptr;
+  auto window = std::make_unique<gui::MainWindow>(windowOptions());
+  window->resize(1280, 800);
+  window->show();
+  if (!window->openSession(QString::fromStdString(folder.string())) || !QTest::qWaitForWindowExposed(window.get(), 10000)) {
+    why = "the planning session did not open or the window was not exposed";
+    return nullptr;
+  }
+  if (!window->displayArea()->hasOpenGlViews()) {
+    why = "no OpenGL views on this display";
+    return nullptr;
+  }
+  window->displayArea()->slices().setCursor(Eigen::Vector3d(0.0, -100.0, 382.0));
+  window->displayArea()->render();
+  QApplication::processEvents();
+  return window;
+}
+
+void BM_SliceScrolling(benchmark::State& state) {
+  std::string why;
+  auto window = planningWindow(why);
+  if (!window) {
+    state.SkipWithError(why.c_str());
+    return;
+  }
+  auto* display = window->displayArea();
+  const int axial = static_cast<int>(rendering::SliceOrientation::Axial);
+  int step = 1, taken = 0;
+  for (auto _ : state) {
+    // Up through 40 slices and back down, staying in the vertebrae.
+    if (++taken % 40 == 0) step = -step;
+    display->sliceWheel(axial, step);
+    QApplication::processEvents();
+  }
+  state.counters["fps"] = benchmark::Counter(static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_SliceScrolling)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(200);
+
+void BM_ScrewDragging(benchmark::State& state) {
+  std::string why;
+  auto window = planningWindow(why);
+  if (!window) {
+    state.SkipWithError(why.c_str());
+    return;
+  }
+  auto* display = window->displayArea();
+  auto& slices = display->slices();
+  const int axial = static_cast<int>(rendering::SliceOrientation::Axial);
+  const auto plan = window->shownPlan();
+  const auto from = plan.empty() ? std::nullopt : slices.displayPoint(rendering::SliceOrientation::Axial, plan[0].entry);
+  if (!from) {
+    state.SkipWithError("the L1 left screw's entry is not on the axial view");
+    return;
+  }
+  display->slicePress(axial, from->x(), from->y());
+  display->sliceMove(axial, from->x() + 4.0, from->y());  // past the drag threshold
+  double dx = 4.0, direction = 1.0;
+  for (auto _ : state) {
+    if (dx > 24.0 || dx < -24.0) direction = -direction;
+    dx += direction;
+    display->sliceMove(axial, from->x() + dx, from->y());
+    QApplication::processEvents();
+  }
+  display->sliceRelease(axial, from->x() + dx, from->y());
+  const auto moved = window->shownPlan();
+  state.counters["fps"] = benchmark::Counter(static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
+  // The drag really moved the screw (its figures recomputed on the way): the entry's distance from where it began.
+  state.counters["entry_moved_mm"] = moved.empty() ? 0.0 : (moved[0].entry - plan[0].entry).norm();
+}
+BENCHMARK(BM_ScrewDragging)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(100);
 
 }  // namespace
 

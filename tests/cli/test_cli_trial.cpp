@@ -45,7 +45,7 @@ TEST(CliTrial, ShortTrialReportHasEveryFigure) {
       {"drill-spin-calibration", {"/shaft_marker", "/recorded/file", "/transforms/FlangeTipToFlange"}},
       {"registration",
        {"/landmarks/fre_rms_mm", "/landmarks/matched", "/surface/rms_mm", "/tre_predicted_at_screws/rms", "/targets",
-        "/models", "/paths", "/transforms/CTToPatient", "/recorded/file"}},
+        "/transforms/CTToPatient", "/recorded/file"}},
       {"hmd-calibration",
        {"/transforms/HologramToTracker", "/views", "/view_spread/max_pairwise_translation_mm", "/recorded/file",
         "/holds_file", "/acquisition/verification_model", "/offline_command", "/offline_verb"}},
@@ -86,6 +86,21 @@ TEST(CliTrial, ShortTrialReportHasEveryFigure) {
     for (const auto& p : pointers) EXPECT_TRUE(plus[step]["figures"].contains(nlohmann::json::json_pointer(p))) << p;
   }
   EXPECT_EQ(report["plus_comparison"]["session"], "plus_comparison");
+  // The patient the registration registered is the session's typed document (the phantom imported as a user's
+  // CT): its models and plan are there, each with where it came from, not in the registration's figures.
+  {
+    std::ifstream session_file(dir / "session" / "session.json");
+    ASSERT_TRUE(session_file);
+    const auto document = nlohmann::json::parse(session_file);
+    EXPECT_EQ(document["version"], 2);
+    ASSERT_EQ(document["images"].size(), 1u);
+    EXPECT_EQ(document["images"][0]["provenance"]["step"], "import-ct");
+    EXPECT_GE(document["models"].size(), 6u) << "C3-C7 and the vessel";
+    EXPECT_EQ(document["plans"].size(), 4u) << "C5 and C6, both sides";
+    ASSERT_TRUE(document["registrations"].contains("CTToPatient")) << document["registrations"].dump();
+    EXPECT_TRUE(document["registrations"]["CTToPatient"]["provenance"]["simulated"].get<bool>())
+        << "acquired from mrsns-sim, so marked simulated";
+  }
   // The live steps acquired from the simulated room, and the room's scorer judged them from outside; the truth
   // stays in the room's folder, never in the session.
   const auto& room = report["simulated_room"];

@@ -291,7 +291,7 @@ TEST_F(LiveNavigationTest, SampleSessionOpensWithItsModelsAndThePlannedPathsInVi
   ASSERT_TRUE(window->openSampleSession()) << messages();
   const auto& scene = window->displayArea()->scene();
   for (const char* name :
-       {"vertebra:C3", "vertebra:C7", "tissue:vessel", "tissue:soft_tissue", "path:C5 left", "path:C6 right"}) {
+       {"vertebra:C3", "vertebra:C7", "tissue:carotid_artery", "path:C5 left", "path:C6 right"}) {
     EXPECT_TRUE(scene.contains(name)) << name << " not in the scene at open";
   }
   if (!window->displayArea()->hasOpenGlViews()) GTEST_SKIP() << "no OpenGL views on this platform";

@@ -169,11 +169,11 @@ TEST_F(MainWindowTest, SampleSessionRegistrationAndUsCalibrationThenSaveAndReope
   ASSERT_TRUE(clickAndWait(*window, "step_registration")) << messages();
   EXPECT_NE(output->readout("fre"), QStringLiteral("—")) << "registration FRE not shown";
   EXPECT_TRUE(window->findChild<QLabel*>("status_registration")->property("stepState").toString() == "done");
-  // Registration writes the phantom's models: the surgeon now sees C3-C7,
-  // the vessel and the soft tissue around the planned screw paths.
+  // The sample's patient (the phantom imported at open): after the registration the surgeon still sees C3-C7,
+  // the vessel and the planned screws, from the session's models.
   const auto& scene = window->displayArea()->scene();
-  for (const char* name : {"vertebra:C3", "vertebra:C4", "vertebra:C5", "vertebra:C6", "vertebra:C7", "tissue:vessel",
-                           "tissue:soft_tissue", "path:C5 left"}) {
+  for (const char* name : {"vertebra:C3", "vertebra:C4", "vertebra:C5", "vertebra:C6", "vertebra:C7",
+                           "tissue:carotid_artery", "path:C5 left"}) {
     EXPECT_TRUE(scene.contains(name)) << name << " missing from the scene";
   }
   const bool gl = window->displayArea()->hasOpenGlViews();
@@ -259,23 +259,28 @@ TEST_F(MainWindowTest, ImportedMeshIsCopiedRecordedAndShown) {
   auto window = makeWindow();
   ASSERT_TRUE(window->createSession(QString::fromStdString((scratch_ / "session").string()))) << messages();
   auto sphere = mrsns::rendering::sphereMesh(Eigen::Vector3d(10, 20, 30), 15.0);
-  const auto file = scratch_ / "C5_model.stl";
+  const auto file = scratch_ / "C5.stl";
   mrsns::io::writeMesh(sphere, file);
   QSignalSpy finished(window.get(), &MainWindow::taskFinished);
   ASSERT_TRUE(window->importFile(mrsns::gui::ImportKind::Mesh, QString::fromStdString(file.string())));
   ASSERT_TRUE(mrsns::test::waitUntil([&] { return !finished.isEmpty(); }, 20000));
   ASSERT_TRUE(finished.first().at(1).toBool()) << messages();
-  EXPECT_TRUE(fs::exists(scratch_ / "session" / "imported" / "C5_model.stl"));
+  // Through the import-model step, as `mrsns-cli session run DIR import-model` does it: the mesh kept in the
+  // session with a light copy for the headset, recorded in the document with its role from its name.
+  EXPECT_TRUE(fs::exists(scratch_ / "session" / "models" / "C5.vtp"));
   const auto state = window->sessionState();
-  ASSERT_TRUE(state["steps"].contains("import-mesh"));
-  EXPECT_EQ(state["steps"]["import-mesh"]["outputs"][0], "imported/C5_model.stl");
-  EXPECT_TRUE(window->displayArea()->scene().contains("vertebra:C5_model"));
+  ASSERT_TRUE(state["steps"].contains("import-model"));
+  EXPECT_EQ(state["steps"]["import-model"]["outputs"][0], "models/C5.vtp");
+  ASSERT_EQ(state["models"].size(), 1u);
+  EXPECT_EQ(state["models"][0]["role"], "bone");
+  EXPECT_EQ(state["models"][0]["provenance"]["file"], fs::absolute(file).string());
+  EXPECT_TRUE(window->displayArea()->scene().contains("vertebra:C5"));
   // Hiding the vertebrae layer keeps the object but hides it; the toggle is a real checkbox.
   auto* layer = window->findChild<QCheckBox*>("layerVertebrae");
   ASSERT_NE(layer, nullptr);
   QTest::mouseClick(layer, Qt::LeftButton, {}, QPoint(4, layer->height() / 2));
   EXPECT_FALSE(layer->isChecked());
-  EXPECT_TRUE(window->displayArea()->scene().contains("vertebra:C5_model"));
+  EXPECT_TRUE(window->displayArea()->scene().contains("vertebra:C5"));
   screenshot(*window, "main_window_imported_mesh.png");
 }
 

@@ -152,6 +152,18 @@ TEST(SliceViews, WindowLevelToolAndFrameOverlaysShow) {
   const auto dark = mrsns::test::readPng(dir / "dark.png");
   EXPECT_EQ(dark.count(0, 0, 600, 200, [](auto c) { return !mrsns::test::isDark(c); }), 0);
   EXPECT_EQ(views.windowLevel(), Eigen::Vector2d(10.0, 3000.0));
+  // The crosshair on that black: each view shows the other two planes through the cursor, and nothing else.
+  views.setCrosshairVisible(true);
+  snapshotSlicesPng(views, dir / "crosshair.png", 600, 200);
+  const auto crosshair = mrsns::test::readPng(dir / "crosshair.png");
+  for (int panel = 0; panel < 3; ++panel) {
+    const int cx = 200 * panel + 100;
+    const auto lit = [](auto c) { return !mrsns::test::isDark(c); };
+    EXPECT_GT(crosshair.count(cx - 2, 20, cx + 3, 80, lit), 20) << "vertical line, panel " << panel;
+    EXPECT_GT(crosshair.count(cx - 80, 98, cx - 20, 103, lit), 20) << "horizontal line, panel " << panel;
+    EXPECT_EQ(crosshair.count(cx - 80, 20, cx - 20, 80, lit), 0) << "nothing beside the lines, panel " << panel;
+  }
+  views.setCrosshairVisible(false);
 
   views.setWindowLevel(400.0, 40.0);
   // Tool tip at the centre pointing superior-left; the cursor follows it.

@@ -292,6 +292,10 @@ TEST(SessionDocument, ANewCtSetsTheOldPatientDataAsideWithoutDeletingIt) {
   PlannedScrew screw;
   screw.name = "L1 left";
   session.setPlans({screw});
+  std::filesystem::create_directories(session.resolve("models"));
+  std::filesystem::create_directories(session.resolve("plans"));
+  std::ofstream(session.resolve("models/L1.vtp")) << "the old patient's L1";
+  std::ofstream(session.resolve("plans/Plan.mrk.json")) << "the old plan";
   session.setAsidePatientData("a new CT");
   EXPECT_FALSE(session.ct().has_value());
   EXPECT_TRUE(session.models().empty());
@@ -301,7 +305,18 @@ TEST(SessionDocument, ANewCtSetsTheOldPatientDataAsideWithoutDeletingIt) {
   EXPECT_EQ(aside[0]["reason"], "a new CT");
   EXPECT_EQ(aside[0]["models"][0]["id"], "L1");
   EXPECT_EQ(aside[0]["plans"][0]["name"], "L1 left");
-  EXPECT_EQ(aside[0]["images"][0]["file"], "ct/old.nrrd");
+  EXPECT_EQ(aside[0]["images"][0]["file"], "ct/old.nrrd") << "a file that is not there is named as it was";
+  // The files moved with their entries: the new patient's models/L1.vtp and plan cannot overwrite them.
+  EXPECT_EQ(aside[0]["models"][0]["file"], "set_aside/1/models/L1.vtp");
+  EXPECT_EQ(aside[0]["plan_file"], "set_aside/1/plans/Plan.mrk.json");
+  EXPECT_FALSE(std::filesystem::exists(session.resolve("models/L1.vtp")));
+  std::ofstream(session.resolve("models/L1.vtp")) << "the new patient's L1";
+  std::ifstream old_model(session.resolve("set_aside/1/models/L1.vtp"));
+  std::string text;
+  std::getline(old_model, text);
+  EXPECT_EQ(text, "the old patient's L1");
+  // Reopened, the record is the same.
+  EXPECT_EQ(Session::open(session.folder()).state()["set_aside"], aside);
 }
 
 TEST(SessionDocument, StructureRolesFromLabelNames) {

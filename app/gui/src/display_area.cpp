@@ -105,6 +105,7 @@ DisplayArea::DisplayArea(QWidget* parent) : QWidget(parent), impl_(std::make_uni
     interactor->SetInteractorStyle(style);
     interactor->AddObserver(vtkCommand::StartInteractionEvent, impl_->interaction);
     interactor->AddObserver(vtkCommand::EndInteractionEvent, impl_->interaction);
+    impl_->slices.setCrosshairVisible(true);  // linked views: each shows where the other two cut it
     const auto renderers = impl_->slices.renderers();
     for (std::size_t i = 0; i < 3; ++i) {
       auto* widget = makeVtkWidget(impl_->slice_column, renderers[i], slice_names[i]);

@@ -60,17 +60,10 @@ void pushBounded(std::vector<double>& v, double x) {
 
 }  // namespace
 
-std::optional<Eigen::Isometry3d> ctFromPatient(const nlohmann::json& state) {
-  try {
-    const auto& m = state.at("steps").at("registration").at("figures").at("transforms").at("CTToPatient");
-    if (!m.is_array() || m.size() != 16) return std::nullopt;
-    Eigen::Matrix4d patient_T_ct;
-    for (int i = 0; i < 16; ++i) patient_T_ct(i / 4, i % 4) = m[static_cast<std::size_t>(i)].get<double>();
-    Eigen::Isometry3d iso(patient_T_ct);
-    return iso.inverse();
-  } catch (const nlohmann::json::exception&) {
-    return std::nullopt;
-  }
+std::optional<Eigen::Isometry3d> ctFromPatient(const workflow::Session& session) {
+  const auto registration = session.transform("CTToPatient");
+  if (!registration) return std::nullopt;
+  return Eigen::Isometry3d(registration->matrix).inverse();
 }
 
 LiveNavigation::LiveNavigation(DisplayArea* display, OutputPanel* output, FunctionPanel* function, QObject* parent)

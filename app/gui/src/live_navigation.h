@@ -18,6 +18,7 @@
 
 #include "mrsns/core/mesh.h"
 #include "mrsns/workflow/navigation.h"
+#include "mrsns/workflow/session.h"
 
 class QTimer;
 
@@ -124,7 +125,7 @@ class LiveNavigation : public QObject {
   double deformation_prior_mm_ = std::numeric_limits<double>::quiet_NaN();
 };
 
-/// CT_T_patient from a session state's registration (figures.transforms.CTToPatient, inverted); none without one.
-std::optional<Eigen::Isometry3d> ctFromPatient(const nlohmann::json& session_state);
+/// CT_T_patient from the session's latest successful registration (CTToPatient, inverted); none without one.
+std::optional<Eigen::Isometry3d> ctFromPatient(const workflow::Session& session);
 
 }  // namespace mrsns::gui

@@ -1,4 +1,5 @@
 #include "main_window.h"
+#include "area_dock.h"
 
 #include <QAction>
 #include <QApplication>
@@ -12,6 +13,7 @@
 #include <QMenuBar>
 #include <QProgressBar>
 #include <QPushButton>
+#include <QCoreApplication>
 #include <QScrollArea>
 #include <QSettings>
 #include <QStandardPaths>
@@ -50,28 +52,6 @@ std::filesystem::path toPath(const QString& s) {
   return std::filesystem::path(s.toStdString());
 }
 
-/// A dock around `content`, scrolling along `scroll` only (the panel reflows
-/// to the other dimension), so no panel forces a minimum window size.
-QDockWidget* makeDock(QMainWindow* window, const QString& title, const QString& name, QWidget* content,
-                      Qt::Orientation scroll) {
-  auto* dock = new QDockWidget(title, window);
-  dock->setObjectName(name + QStringLiteral("Dock"));
-  dock->setFeatures(QDockWidget::DockWidgetMovable | QDockWidget::DockWidgetFloatable |
-                    QDockWidget::DockWidgetClosable);
-  content->setObjectName(name);
-  auto* area = new QScrollArea(dock);
-  area->setWidget(content);
-  area->setWidgetResizable(true);
-  if (scroll == Qt::Vertical) {
-    area->setHorizontalScrollBarPolicy(Qt::ScrollBarAlwaysOff);
-  } else {
-    area->setVerticalScrollBarPolicy(Qt::ScrollBarAlwaysOff);
-  }
-  area->setFrameShape(QFrame::NoFrame);
-  dock->setWidget(area);
-  return dock;
-}
-
 }  // namespace
 
 MainWindow::MainWindow(MainWindowOptions options, QWidget* parent) : QMainWindow(parent), options_(std::move(options)) {
@@ -97,9 +77,9 @@ MainWindow::MainWindow(MainWindowOptions options, QWidget* parent) : QMainWindow
   preparation_->setSteps(steps);
   function_->setSteps(steps);
 
-  preparation_dock_ = makeDock(this, tr("Preparation"), QStringLiteral("preparationArea"), preparation_, Qt::Vertical);
-  function_dock_ = makeDock(this, tr("Function"), QStringLiteral("functionArea"), function_, Qt::Horizontal);
-  output_dock_ = makeDock(this, tr("Output"), QStringLiteral("outputArea"), output_, Qt::Vertical);
+  preparation_dock_ = makeAreaDock(this, tr("Preparation"), QStringLiteral("preparationArea"), preparation_, Qt::Vertical);
+  function_dock_ = makeAreaDock(this, tr("Function"), QStringLiteral("functionArea"), function_, Qt::Horizontal);
+  output_dock_ = makeAreaDock(this, tr("Output"), QStringLiteral("outputArea"), output_, Qt::Vertical);
   // Fig. 4: preparation left, output right, the function strip under display and output.
   setCorner(Qt::BottomLeftCorner, Qt::LeftDockWidgetArea);
   setCorner(Qt::BottomRightCorner, Qt::BottomDockWidgetArea);
@@ -563,7 +543,16 @@ void MainWindow::chooseAndSaveSessionAs() {
 
 void MainWindow::chooseAndImport(ImportKind kind) {
   const QString path = QFileDialog::getOpenFileName(this, tr("Import"), QString(), importFileFilter(kind));
-  if (!path.isEmpty()) importFile(kind, path);
+  if (path.isEmpty()) return;
+  if (kind == ImportKind::Mesh) {
+    if (!session_) {
+      importFile(kind, path);  // says that a session is needed
+      return;
+    }
+    if (const auto params = askModelImport(this, path)) runStep(QStringLiteral("import-model"), *params);
+    return;
+  }
+  importFile(kind, path);
 }
 
 void MainWindow::requestStep(const QString& step) {
@@ -636,6 +625,9 @@ void MainWindow::chooseAndRunPivot() {
 }
 
 bool MainWindow::saveScreenshot(const QString& png) {
+  // The window as the user sees it once its pending layouts have run (a panel whose text just changed may need
+  // a second pass: a wrapped label's height follows its width).
+  for (int pass = 0; pass < 3; ++pass) QCoreApplication::sendPostedEvents(nullptr, QEvent::LayoutRequest);
   display_->render();
   const QPixmap pixmap = grab();
   if (pixmap.isNull() || !pixmap.save(png, "PNG")) {

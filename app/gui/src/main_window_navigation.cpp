@@ -11,6 +11,7 @@
 #include "mrsns/workflow/navigation.h"
 #include "mrsns/workflow/session.h"
 #include "output_panel.h"
+#include "session_import.h"
 
 namespace mrsns::gui {
 
@@ -18,23 +19,9 @@ bool MainWindow::navigating() const {
   return live_ != nullptr && live_->running();
 }
 
-namespace {
-
-/// The registration's planned paths (figures.paths), if any.
-const nlohmann::json* plannedPaths(const nlohmann::json& state) {
-  if (!state.contains("steps") || !state["steps"].contains("registration")) return nullptr;
-  const auto& record = state["steps"]["registration"];
-  if (!record.is_object() || record.value("status", "") != "ok" || !record.contains("figures")) return nullptr;
-  const auto& figures = record["figures"];
-  if (!figures.contains("paths") || !figures["paths"].is_array() || figures["paths"].empty()) return nullptr;
-  return &figures["paths"];
-}
-
-}  // namespace
-
 bool MainWindow::startNavigation() {
   workflow::NavigationOptions options;
-  options.robot.robot = session_ && plannedPaths(session_->state()) ? "simulated" : "none";
+  options.robot.robot = session_ && !session_->plans().empty() ? "simulated" : "none";
   return startNavigation(options);
 }
 
@@ -54,19 +41,15 @@ bool MainWindow::startNavigation(workflow::NavigationOptions options) {
   // The supervisor needs the patient and the probe; other sources may name
   // their tools differently (as the navigation step decides).
   if (options.devices.source != "simulated") options.required_transforms.clear();
-  const auto ct_T_patient = ctFromPatient(session_->state());
+  const auto ct_T_patient = ctFromPatient(*session_);
   if (options.robot.robot == "simulated") {
-    if (const auto* paths = plannedPaths(session_->state())) {
-      // The robot follows the first planned path, placed by the registration.
-      const auto& path = (*paths)[0];
-      const auto& e = path["entry_ct"];
-      const auto& t = path["target_ct"];
-      if (e.is_array() && e.size() == 3 && t.is_array() && t.size() == 3) {
-        options.robot.plan.name = path.value("name", "path 1");
-        options.robot.plan.entry = Eigen::Vector3d(e[0].get<double>(), e[1].get<double>(), e[2].get<double>());
-        options.robot.plan.target = Eigen::Vector3d(t[0].get<double>(), t[1].get<double>(), t[2].get<double>());
-        if (ct_T_patient) options.robot.patient_T_plan = ct_T_patient->inverse();
-      }
+    const auto plans = session_->plans();
+    if (!plans.empty()) {
+      // The robot follows the first planned screw, placed by the registration.
+      options.robot.plan.name = plans[0].name;
+      options.robot.plan.entry = plans[0].entry;
+      options.robot.plan.target = plans[0].target;
+      if (ct_T_patient) options.robot.patient_T_plan = ct_T_patient->inverse();
     }
   }
   setup.options = options;
@@ -78,13 +61,13 @@ bool MainWindow::startNavigation(workflow::NavigationOptions options) {
     }
     setup.options.recording = session_->resolve(name);
     if (ct_T_patient) setup.world_T_patient = *ct_T_patient;
-    // The tip's distance to what the drill must avoid: the vessel, else any soft tissue.
-    for (const char* wanted : {"vessel", "tissue:"}) {
-      for (const auto& [object, mesh] : meshes_) {
-        if (setup.distance_target.empty() && object.rfind("tissue:", 0) == 0 &&
-            object.find(wanted) != std::string::npos) {
-          setup.distance_target = mesh;
-          setup.distance_target_name = object.substr(7);
+    // The tip's distance to what the drill must avoid: a vessel, else any soft tissue (by the models' roles).
+    for (const auto role : {workflow::ModelRole::Vessel, workflow::ModelRole::SoftTissue}) {
+      for (const auto& model : session_->models(role)) {
+        const auto shown = meshes_.find(sceneName(model));
+        if (setup.distance_target.empty() && shown != meshes_.end()) {
+          setup.distance_target = shown->second;
+          setup.distance_target_name = model.name;
         }
       }
     }

@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "display_area.h"
+#include "area_dock.h"
 #include "main_window.h"
 #include "message_presenter.h"
 #include "mrsns/core/error.h"
@@ -44,10 +45,7 @@ std::string anatomyKey(const workflow::Session& session) {
 
 void MainWindow::buildPlanning() {
   planning_ = new PlanningPanel;
-  planning_dock_ = new QDockWidget(tr("Planning"), this);
-  planning_dock_->setObjectName(QStringLiteral("planningAreaDock"));
-  planning_->setObjectName(QStringLiteral("planningArea"));
-  planning_dock_->setWidget(planning_);
+  planning_dock_ = makeAreaDock(this, tr("Planning"), QStringLiteral("planningArea"), planning_, Qt::Vertical);
   addDockWidget(Qt::LeftDockWidgetArea, planning_dock_);
   tabifyDockWidget(preparation_dock_, planning_dock_);
   preparation_dock_->raise();
@@ -286,24 +284,15 @@ void MainWindow::onPicked(const Eigen::Vector3d& p) {
       screw.length_mm = planning_->newLength();
       cancelPlacing();
       // A name from the anatomy ("L2 left") when the screw lies in a named vertebra, else "Screw N".
-      int n = static_cast<int>(shown_plan_.size()) + 1;
-      const auto taken = [&](const std::string& name) {
-        return std::any_of(shown_plan_.begin(), shown_plan_.end(), [&](const auto& s) { return s.name == name; });
-      };
-      do {
-        screw.name = "Screw " + std::to_string(n++);
-      } while (taken(screw.name));
+      nlohmann::json figures;
       if (auto* anatomy = planningAnatomy()) {
         try {
-          const auto f = anatomy->evaluate(screw);
-          if (f["vertebra"].is_string() && f["angles"].is_object()) {
-            const std::string named = f["vertebra"].get<std::string>() + " " + f["angles"].value("side", "");
-            if (!taken(named)) screw.name = named;
-          }
+          figures = anatomy->evaluate(screw);
         } catch (const mrsns::Error&) {
           // planScrew says what is wrong with it
         }
       }
+      screw.name = workflow::nameForNewScrew(shown_plan_, figures);
       if (planScrew(screw)) planning_->selectScrew(QString::fromStdString(screw.name));
       return;
     }

@@ -11,6 +11,7 @@
 #include <QLabel>
 #include <QLineEdit>
 #include <QPushButton>
+#include <QResizeEvent>
 #include <QSignalBlocker>
 #include <QTableWidget>
 #include <QVBoxLayout>
@@ -21,6 +22,25 @@
 namespace mrsns::gui {
 
 namespace {
+
+/// A word-wrapped label that keeps the height its text needs at its width: in a scrolling panel a plain
+/// word-wrapped QLabel is squeezed to a line or two (the scroll area sizes its content by minimum size hints,
+/// which for wrapped text ignore the width), hiding the figures below.
+class WrappingLabel : public QLabel {
+ public:
+  using QLabel::QLabel;
+  [[nodiscard]] QSize minimumSizeHint() const override {
+    QSize size = QLabel::minimumSizeHint();
+    if (width() > 0) size.setHeight(heightForWidth(width()));
+    return size;
+  }
+
+ protected:
+  void resizeEvent(QResizeEvent* event) override {
+    QLabel::resizeEvent(event);
+    if (event->size().width() != event->oldSize().width()) updateGeometry();
+  }
+};
 
 QString number(const nlohmann::json& j, const char* key, int decimals = 1) {
   if (!j.is_object() || !j.contains(key) || !j[key].is_number()) return QStringLiteral("—");
@@ -155,7 +175,7 @@ PlanningPanel::PlanningPanel(QWidget* parent) : QWidget(parent) {
   connect(side_, qOverload<int>(&QComboBox::activated), this, [this](int) { emitEdit(); });
   connect(diameter_, &QDoubleSpinBox::editingFinished, this, &PlanningPanel::emitEdit);
   connect(length_, &QDoubleSpinBox::editingFinished, this, &PlanningPanel::emitEdit);
-  figures_ = new QLabel(tr("no screw selected"), plan);
+  figures_ = new WrappingLabel(tr("no screw selected"), plan);
   figures_->setObjectName(QStringLiteral("screwFigures"));
   figures_->setWordWrap(true);
   figures_->setTextInteractionFlags(Qt::TextSelectableByMouse);
@@ -164,7 +184,7 @@ PlanningPanel::PlanningPanel(QWidget* parent) : QWidget(parent) {
   trajectory_->setObjectName(QStringLiteral("showTrajectory"));
   plan_layout->addWidget(trajectory_);
   connect(trajectory_, &QCheckBox::toggled, this, &PlanningPanel::trajectoryToggled);
-  hint_ = new QLabel(plan);
+  hint_ = new WrappingLabel(plan);
   hint_->setObjectName(QStringLiteral("planningHint"));
   hint_->setWordWrap(true);
   plan_layout->addWidget(hint_);

@@ -15,6 +15,8 @@
 #include <QRadioButton>
 #include <QSpinBox>
 #include <QVBoxLayout>
+#include <filesystem>
+#include <vector>
 
 #include "mrsns/io/image_io.h"
 #include "mrsns/workflow/session.h"
@@ -167,6 +169,29 @@ std::optional<nlohmann::json> askMakeModels(QWidget* parent, const workflow::Ses
     params["threshold_hu"] = threshold->value();
   }
   return params;
+}
+
+std::optional<nlohmann::json> askModelImport(QWidget* parent, const QString& path) {
+  // The role decides how planning treats the model (bone holds a screw, vessels and nerves are kept clear of).
+  const std::vector<workflow::ModelRole> roles = {workflow::ModelRole::Bone,   workflow::ModelRole::Vessel,
+                                                  workflow::ModelRole::Neural, workflow::ModelRole::SoftTissue,
+                                                  workflow::ModelRole::Fiducial, workflow::ModelRole::Other};
+  const std::string stem = std::filesystem::path(path.toStdString()).stem().string();
+  const workflow::ModelRole suggested = workflow::structureRole(stem);
+  QStringList names;
+  int current = 0;
+  for (std::size_t i = 0; i < roles.size(); ++i) {
+    names << QString::fromStdString(workflow::modelRoleName(roles[i]));
+    if (roles[i] == suggested) current = static_cast<int>(i);
+  }
+  bool ok = false;
+  const QString role = QInputDialog::getItem(
+      parent, QObject::tr("Import model"),
+      QObject::tr("What is %1? (planning keeps screws in bone and clear of vessels and nerves)")
+          .arg(QString::fromStdString(stem)),
+      names, current, false, &ok);
+  if (!ok) return std::nullopt;
+  return nlohmann::json{{"path", path.toStdString()}, {"role", role.toStdString()}};
 }
 
 }  // namespace mrsns::gui

@@ -26,4 +26,9 @@ std::optional<nlohmann::json> askLabelMapImport(QWidget* parent, const workflow:
 /// roles) or from a bone threshold, and the headset copy's size.
 std::optional<nlohmann::json> askMakeModels(QWidget* parent, const workflow::Session& session);
 
+/// import-model: the mesh's role (bone, vessel, soft tissue, neural, fiducial,
+/// other), offered as the one its file name suggests; the parameters for the
+/// step with `path`.
+std::optional<nlohmann::json> askModelImport(QWidget* parent, const QString& path);
+
 }  // namespace mrsns::gui

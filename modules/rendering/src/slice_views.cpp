@@ -171,7 +171,7 @@ struct SliceViews::Impl {
   Eigen::Vector3d tool_end = Eigen::Vector3d::Zero();
   bool has_us = false;
   std::array<Eigen::Vector3d, 4> us_corners;  ///< CT mm, around the frame's edge
-  bool crosshair = true;
+  bool crosshair = false;
   Eigen::Vector3d spacing = Eigen::Vector3d::Ones();
   Eigen::Matrix3d direction = Eigen::Matrix3d::Identity();
   std::vector<SliceScrew> screws;

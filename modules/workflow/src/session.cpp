@@ -374,15 +374,69 @@ std::vector<RecordingEntry> Session::recordings() const {
   return state_.at("recordings").get<std::vector<RecordingEntry>>();
 }
 
+namespace {
+
+/// Moves the session file `relative` (when it exists) to `folder`/`relative` and returns the new name; a
+/// name that is not a file of the session is returned unchanged.
+std::string moveAside(const Session& session, const std::string& relative, const std::string& folder) {
+  std::error_code ec;
+  fs::path from;
+  try {
+    from = session.resolve(relative);
+  } catch (const mrsns::Error&) {
+    return relative;
+  }
+  if (relative.empty() || !fs::is_regular_file(from, ec)) return relative;
+  const std::string moved = folder + "/" + relative;
+  const fs::path to = session.resolve(moved);
+  fs::create_directories(to.parent_path(), ec);
+  fs::rename(from, to, ec);
+  if (ec) {
+    throw FileError("setting the old patient data aside: moving '" + from.string() + "' to '" + to.string() +
+                    "' failed (" + ec.message() + "): the session keeps the old data; files moved before it are in " +
+                    session.resolve(folder).string());
+  }
+  return moved;
+}
+
+/// Every "file"/"hmd_file" of `entry` (recursively) moved into `folder`.
+void moveFilesAside(const Session& session, nlohmann::json& entry, const std::string& folder) {
+  if (entry.is_array()) {
+    for (auto& item : entry) moveFilesAside(session, item, folder);
+  } else if (entry.is_object()) {
+    for (auto& [key, value] : entry.items()) {
+      if ((key == "file" || key == "hmd_file") && value.is_string()) {
+        value = moveAside(session, value.get<std::string>(), folder);
+      } else if (key != "provenance") {  // a provenance's file is the user's original, outside the session
+        moveFilesAside(session, value, folder);
+      }
+    }
+  }
+}
+
+}  // namespace
+
 void Session::setAsidePatientData(const std::string& reason) {
   nlohmann::json aside = {{"time", isoTimeNow()}, {"reason", reason}};
+  if (!state_.contains("set_aside") || !state_["set_aside"].is_array()) state_["set_aside"] = nlohmann::json::array();
+  // The files move too (set_aside/N/...): the new patient's models and plan reuse names such as models/L1.vtp and
+  // plans/Plan.mrk.json, which would otherwise overwrite the old ones.
+  const std::string folder = "set_aside/" + std::to_string(state_["set_aside"].size() + 1);
+  const nlohmann::json before = state_;
+  try {
   for (const char* key : {"images", "label_maps", "models", "shape_models", "plans"}) {
     aside[key] = state_[key];
     state_[key] = nlohmann::json::array();
   }
   aside["fiducials"] = state_["fiducials"];
   state_["fiducials"] = nullptr;
-  if (!state_.contains("set_aside") || !state_["set_aside"].is_array()) state_["set_aside"] = nlohmann::json::array();
+  moveFilesAside(*this, aside, folder);
+  aside["plan_file"] = moveAside(*this, "plans/Plan.mrk.json", folder);
+  aside["folder"] = folder;
+  } catch (...) {
+    state_ = before;
+    throw;
+  }
   state_["set_aside"].push_back(std::move(aside));
   touchAndSave();
 }

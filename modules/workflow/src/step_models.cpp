@@ -241,8 +241,9 @@ StepResult runImportModel(Session& session, const Json& params, const StepContex
                  {"path", "role", "name", "id", "color", "opacity", "hmd_triangles", "coordinate_system"});
   const std::string path = p.text("path", "");
   if (path.empty()) throw InvalidArgumentError("import-model: give path= a mesh (STL, VTP, VTK, OBJ or PLY) in the CT's frame");
+  // Without a CT (a phantom's or a device's model for the headset) the mesh is taken in the session's CT frame as
+  // given; with one, a mesh that misses the CT is refused as being in another frame.
   const auto ct = session.ct();
-  if (!ct) throw InvalidArgumentError("import-model: import the CT the model belongs to first (import-ct)");
   context.report(0.1, "reading " + fs::path(path).filename().string());
   TriangleMesh mesh = io::readMesh(path);
   if (mesh.faceCount() == 0) {
@@ -268,7 +269,7 @@ StepResult runImportModel(Session& session, const Json& params, const StepContex
     }
   }
   const Eigen::AlignedBox3d mesh_box = boundingBox(mesh);
-  const Eigen::AlignedBox3d ct_box = ctBounds(*ct);
+  const Eigen::AlignedBox3d ct_box = ct ? ctBounds(*ct) : mesh_box;
   if (!ct_box.intersects(mesh_box)) {
     std::ostringstream out;
     out.precision(1);
@@ -302,6 +303,7 @@ StepResult runImportModel(Session& session, const Json& params, const StepContex
   session.putModel(e);
   result.figures["models"] = Json::array({modelFigures(e)});
   result.figures["coordinate_system"] = space;
+  if (!ct) result.figures["warning"] = "the session has no CT: the model is placed in its frame as given";
   if (!session.plans().empty()) result.figures["plan"] = refreshPlanFigures(session);
   result.ok = true;
   result.summary = "model " + e.name + " (" + modelRoleName(e.role) + ", " + std::to_string(e.triangles) +

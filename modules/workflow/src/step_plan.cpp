@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <optional>
 #include <sstream>
 
 #include "mrsns/core/error.h"
@@ -127,6 +128,23 @@ PlannedScrew savePlannedScrew(Session& session, PlannedScrew screw, const Planni
   return screw;
 }
 
+std::string nameForNewScrew(const std::vector<PlannedScrew>& plans, const nlohmann::json& figures) {
+  const auto taken = [&](const std::string& name) {
+    return std::any_of(plans.begin(), plans.end(), [&](const PlannedScrew& s) { return s.name == name; });
+  };
+  if (figures.is_object() && figures.contains("vertebra") && figures["vertebra"].is_string() &&
+      figures.contains("angles") && figures["angles"].is_object()) {
+    const std::string side = figures["angles"].value("side", "");
+    const std::string named = figures["vertebra"].get<std::string>() + (side.empty() ? "" : " " + side);
+    if (!taken(named)) return named;
+  }
+  std::string name;
+  for (std::size_t n = plans.size() + 1;; ++n) {
+    name = "Screw " + std::to_string(n);
+    if (!taken(name)) return name;
+  }
+}
+
 bool removePlannedScrew(Session& session, const std::string& name) {
   auto plans = session.plans();
   const auto it = std::find_if(plans.begin(), plans.end(), [&](const PlannedScrew& s) { return s.name == name; });
@@ -176,9 +194,27 @@ StepResult runPlanScrew(Session& session, const Json& params, const StepContext&
                  {"name", "entry", "target", "diameter_mm", "length_mm", "vertebra", "side", "remove", "rename"});
   const auto ct = session.ct();
   if (!ct) throw InvalidArgumentError("plan-screw: import the patient's CT first (import-ct): screws are planned on it");
-  const std::string name = p.text("name", "");
-  if (name.empty()) throw InvalidArgumentError("plan-screw: give name= the screw's name (e.g. \"L1 left\")");
   auto plans = session.plans();
+  std::string name = p.text("name", "");
+  std::optional<PlanningAnatomyCache> anatomy;
+  if (name.empty()) {
+    // A new screw named from the anatomy, as the GUI names a screw clicked on the slices.
+    if (p.boolean("remove", false) || p.has("rename")) {
+      throw InvalidArgumentError("plan-screw: give name= the screw to change (e.g. \"L1 left\")");
+    }
+    if (!p.has("entry") || !p.has("target")) {
+      throw InvalidArgumentError("plan-screw: a new screw needs entry= and target= (\"x,y,z\" in the CT, mm)");
+    }
+    PlannedScrew probe;
+    probe.name = "new screw";
+    probe.entry = pointParam(params, "entry", "plan-screw");
+    probe.target = pointParam(params, "target", "plan-screw");
+    probe.diameter_mm = p.number("diameter_mm", probe.diameter_mm);
+    probe.length_mm = p.number("length_mm", probe.length_mm);
+    checkScrew(probe, *ct, "plan-screw");
+    anatomy.emplace(session);
+    name = nameForNewScrew(plans, anatomy->evaluate(probe));
+  }
   auto it = std::find_if(plans.begin(), plans.end(), [&](const PlannedScrew& s) { return s.name == name; });
   StepResult result;
   if (p.boolean("remove", false)) {
@@ -218,8 +254,8 @@ StepResult runPlanScrew(Session& session, const Json& params, const StepContext&
     }
     screw.name = renamed;
   }
-  const PlanningAnatomyCache anatomy(session);
-  savePlannedScrew(session, screw, anatomy, adding ? std::string() : name);
+  if (!anatomy) anatomy.emplace(session);
+  savePlannedScrew(session, screw, *anatomy, adding ? std::string() : name);
   Json figures = Json::object();
   for (const auto& s : session.plans()) figures[s.name] = s.figures;
   result.figures["screw"] = session.plan(screw.name).value_or(screw);

@@ -92,7 +92,9 @@ class SliceViews {
   /// Moves the cursor along `view`'s normal by `steps` voxels (the CT's
   /// spacing along that normal), kept inside the volume: scrolling a view.
   void scroll(SliceOrientation view, int steps);
-  /// The crosshair: each view shows where the other two planes cut it.
+  /// The crosshair: each view shows where the other two planes cut it (off
+  /// until set: the workstation's planning views show it, snapshots of the
+  /// anatomy do not).
   void setCrosshairVisible(bool visible);
   [[nodiscard]] bool crosshairVisible() const;
 

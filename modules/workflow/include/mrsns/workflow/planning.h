@@ -56,6 +56,11 @@ class PlanningAnatomyCache {
 PlannedScrew savePlannedScrew(Session& session, PlannedScrew screw, const PlanningAnatomyCache& anatomy,
                               const std::string& replaces = {});
 
+/// A name for a new screw: "<vertebra> <side>" ("L2 left") from its figures
+/// when it lies in a named vertebra and no screw of `plans` has that name,
+/// else the first free "Screw N". The GUI and plan-screw without name= use it.
+std::string nameForNewScrew(const std::vector<PlannedScrew>& plans, const nlohmann::json& figures);
+
 /// Removes the screw `name` and rewrites the plan's markups copy; false when there is none.
 bool removePlannedScrew(Session& session, const std::string& name);
 
