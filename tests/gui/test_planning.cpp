@@ -16,6 +16,7 @@
 #include "display_area.h"
 #include "gui_test_app.h"
 #include "main_window.h"
+#include "mrsns/io/image_io.h"
 #include "mrsns/rendering/slice_views.h"
 #include "mrsns/workflow/session.h"
 #include "planning_panel.h"
@@ -167,6 +168,50 @@ TEST_F(PlanningWindowTest, RealCtSessionFromScratchScrewsPlacedDraggedSavedAndRe
   EXPECT_EQ(reopened->sessionState()["models"], before["models"]);
   EXPECT_EQ(reopened->shownPlan().size(), 4u);
   EXPECT_TRUE(reopened->displayArea()->scene().contains("path:L2 right"));
+}
+
+/// A CT imported into a session that has one: the user is asked first; no keeps everything, yes sets the old
+/// CT and what was made from it aside in the session (nothing deleted) and imports the new one.
+TEST_F(PlanningWindowTest, ASecondCtAsksBeforeTheFirstIsSetAside) {
+  const auto write_ct = [&](const std::string& name, double hu) {
+    mrsns::ImageVolume ct;
+    ct.size = {24, 20, 16};
+    ct.spacing = Eigen::Vector3d(1.0, 1.0, 2.0);
+    ct.pixel_type = mrsns::PixelType::Int16;
+    ct.data.resize(ct.byteCount());
+    auto* v = reinterpret_cast<std::int16_t*>(ct.data.data());
+    for (std::size_t i = 0; i < ct.voxelCount(); ++i) v[i] = static_cast<std::int16_t>(i % 7 == 0 ? hu : -1000);
+    const auto file = scratch_ / (name + ".nrrd");
+    mrsns::io::writeImage(ct, file);
+    return QString::fromStdString(file.string());
+  };
+  auto window = makeWindow();
+  ASSERT_TRUE(window->createSession(QString::fromStdString((scratch_ / "two-cts").string())));
+  const auto import = [&](const QString& file) {
+    if (!window->importFile(mrsns::gui::ImportKind::CtImage, file)) return false;
+    return mrsns::test::waitUntil([&] { return !window->taskRunning(); }, kPlanningStepTimeoutMs);
+  };
+  ASSERT_TRUE(import(write_ct("first", 1200.0))) << messages();
+  EXPECT_TRUE(recorder_->questions.empty()) << "nothing to replace: no question";
+  ASSERT_TRUE(window->runStep("place-fiducial", {{"position", "3,3,3"}}));
+  ASSERT_TRUE(mrsns::test::waitUntil([&] { return !window->taskRunning(); }, kPlanningStepTimeoutMs));
+
+  recorder_->answer = false;
+  EXPECT_FALSE(import(write_ct("second", 1500.0)));
+  ASSERT_EQ(recorder_->questions.size(), 1u);
+  EXPECT_TRUE(recorder_->questions[0].text.contains("first")) << recorder_->questions[0].text.toStdString();
+  EXPECT_EQ(window->sessionState()["images"][0]["name"], "first") << "no: the session is as it was";
+  EXPECT_FALSE(window->sessionState()["fiducials"].is_null());
+
+  recorder_->answer = true;
+  ASSERT_TRUE(import(write_ct("second", 1500.0))) << messages();
+  const auto state = window->sessionState();
+  EXPECT_EQ(state["images"][0]["name"], "second");
+  EXPECT_TRUE(state["fiducials"].is_null()) << "the new CT starts without the old fiducials";
+  ASSERT_EQ(state["set_aside"].size(), 1u);
+  EXPECT_EQ(state["set_aside"][0]["images"][0]["name"], "first");
+  EXPECT_EQ(state["set_aside"][0]["fiducials"]["points"].size(), 1u);
+  EXPECT_TRUE(recorder_->messages.empty()) << messages();
 }
 
 }  // namespace

@@ -346,6 +346,12 @@ TEST(ImageIo, TruncatedNiftiIsAFormatError) {
   const std::string gz = slurp(dir / "full.nii.gz");
   writeBytes(dir / "cut.nii.gz", gz.substr(0, gz.size() / 2));
   expectErrorNaming<FormatError>(dir / "cut.nii.gz");
+  // Damaged inside with its trailer intact (the length the gzip trailer records still matches the header): the
+  // decompression itself must refuse it, not hand back a volume.
+  std::string damaged = gz;
+  for (std::size_t i = damaged.size() / 3; i < damaged.size() / 3 + 64; ++i) damaged[i] = static_cast<char>(~damaged[i]);
+  writeBytes(dir / "damaged.nii.gz", damaged);
+  expectErrorNaming<FormatError>(dir / "damaged.nii.gz");
 }
 
 TEST(ImageIo, TruncatedMetaImageIsAFormatError) {

@@ -432,7 +432,10 @@ bool MainWindow::importFile(ImportKind kind, const QString& path) {
   if (refuseWhileBusy(tr("Import"))) return false;
   // The patient's data go through their workflow steps, as `mrsns-cli session run` does.
   switch (kind) {
-    case ImportKind::CtImage: return runStep(QStringLiteral("import-ct"), {{"path", path.toStdString()}});
+    case ImportKind::CtImage: {
+      const auto params = ctImportParams({{"path", path.toStdString()}});
+      return params && runStep(QStringLiteral("import-ct"), *params);
+    }
     case ImportKind::Mesh: return runStep(QStringLiteral("import-model"), {{"path", path.toStdString()}});
     case ImportKind::Landmarks:
       return runStep(QStringLiteral("find-fiducials"), {{"source", "file"}, {"path", path.toStdString()}});
@@ -589,10 +592,25 @@ void MainWindow::chooseAndImportDicom() {
   const QString folder = QFileDialog::getExistingDirectory(this, tr("Import CT: DICOM series folder"));
   if (folder.isEmpty()) return;
   try {
-    if (const auto params = askDicomSeries(this, folder)) runStep(QStringLiteral("import-ct"), *params);
+    if (const auto series = askDicomSeries(this, folder)) {
+      if (const auto params = ctImportParams(*series)) runStep(QStringLiteral("import-ct"), *params);
+    }
   } catch (const mrsns::Error& e) {
     presentError(tr("Import CT"), QString::fromStdString(e.what()));
   }
+}
+
+std::optional<nlohmann::json> MainWindow::ctImportParams(nlohmann::json params) {
+  if (!session_ || !session_->ct()) return params;
+  const QString current = QString::fromStdString(session_->ct()->name);
+  const bool yes = presenter_->confirm(
+      {MessageKind::Warning, tr("Import CT"),
+       tr("The session already has a CT (%1). Replace it?\n\nIts label maps, models, fiducials and planned screws "
+          "are set aside in the session (set_aside/), not deleted; the new CT starts without them.")
+           .arg(current)});
+  if (!yes) return std::nullopt;
+  params["replace"] = true;
+  return params;
 }
 
 void MainWindow::chooseAndImportLabelMap() {

@@ -5,6 +5,8 @@
 // button calls into mrsns::workflow or a module on a worker thread; errors
 // reach the user through the MessagePresenter, never as a crash.
 #include <QMainWindow>
+#include <chrono>
+#include <optional>
 #include <atomic>
 #include <cstdint>
 #include <QStringList>
@@ -181,6 +183,9 @@ class MainWindow : public QMainWindow {
   void setStepState(const QString& step, StepState state, const QString& detail);
   void recordImport(const std::string& record, const TaskOutcome& outcome);
   void presentError(const QString& title, const QString& text);
+  /// import-ct's parameters once the user agreed to set the session's CT (and everything made from it) aside,
+  /// when it has one; nothing when the user said no.
+  std::optional<nlohmann::json> ctImportParams(nlohmann::json params);
   void presentInfo(const QString& title, const QString& text);
   bool refuseWhileBusy(const QString& what);
   void chooseAndOpenSession();
@@ -234,6 +239,11 @@ class MainWindow : public QMainWindow {
   std::unique_ptr<workflow::PlanningAnatomyCache> anatomy_;
   std::string anatomy_key_;  // which models the cached anatomy was built from
   std::vector<workflow::PlannedScrew> shown_plan_;
+  // When the dragged screw's figures were last computed: they follow the drag at most every
+  // kDragFiguresInterval, the screw itself every mouse move (and both on release).
+  std::chrono::steady_clock::time_point drag_figures_at_{};
+  // When the 3D view last followed the drag (the slice views follow every move).
+  std::chrono::steady_clock::time_point drag_scene_at_{};
   enum class Placing { None, ScrewEntry, ScrewTarget, Fiducial };
   Placing placing_ = Placing::None;
   Eigen::Vector3d placing_entry_ = Eigen::Vector3d::Zero();

@@ -14,4 +14,11 @@ void DialogPresenter::present(const UserMessage& message) {
   box->open();
 }
 
+bool DialogPresenter::confirm(const UserMessage& question) {
+  QMessageBox box(QMessageBox::Question, question.title, question.text, QMessageBox::Yes | QMessageBox::No, parent_);
+  box.setObjectName(QStringLiteral("userQuestion"));
+  box.setDefaultButton(QMessageBox::No);
+  return box.exec() == QMessageBox::Yes;
+}
+
 }  // namespace mrsns::gui

@@ -224,6 +224,26 @@ PlanningPanel::PlanningPanel(QWidget* parent) : QWidget(parent) {
   layout->addStretch(1);
 }
 
+void PlanningPanel::fillRow(int row, const workflow::PlannedScrew& s) {
+  const auto& f = s.figures;
+  const QString breach = f.contains("breach") && f["breach"].is_object()
+                             ? QStringLiteral("%1 %2").arg(number(f["breach"], "max_breach_mm"),
+                                                           QString::fromStdString(f["breach"].value("grade", "")))
+                             : QStringLiteral("—");
+  const auto& a = f.contains("angles") ? f["angles"] : nlohmann::json();
+  const QString cells[] = {QString::fromStdString(s.name), QString::fromStdString(s.vertebra), breach,
+                           clearanceText(f, "vessel"),    clearanceText(f, "neural"),       number(a, "medial_deg"),
+                           number(a, "cranial_deg")};
+  for (int column = 0; column < 7; ++column) {
+    // Existing cells change their text only: a drag updates its row many times a second.
+    if (auto* cell = screws_->item(row, column)) {
+      if (cell->text() != cells[column]) cell->setText(cells[column]);
+    } else {
+      screws_->setItem(row, column, item(cells[column]));
+    }
+  }
+}
+
 void PlanningPanel::setPlan(const std::vector<workflow::PlannedScrew>& plans) {
   const QString selected = selectedScrew();
   plans_ = plans;
@@ -231,22 +251,8 @@ void PlanningPanel::setPlan(const std::vector<workflow::PlannedScrew>& plans) {
   screws_->setRowCount(static_cast<int>(plans.size()));
   int row_of_selected = -1;
   for (std::size_t i = 0; i < plans.size(); ++i) {
-    const auto& s = plans[i];
-    const auto row = static_cast<int>(i);
-    const auto& f = s.figures;
-    screws_->setItem(row, 0, item(QString::fromStdString(s.name)));
-    screws_->setItem(row, 1, item(QString::fromStdString(s.vertebra)));
-    const QString breach = f.contains("breach") && f["breach"].is_object()
-                               ? QStringLiteral("%1 %2").arg(number(f["breach"], "max_breach_mm"),
-                                                             QString::fromStdString(f["breach"].value("grade", "")))
-                               : QStringLiteral("—");
-    screws_->setItem(row, 2, item(breach));
-    screws_->setItem(row, 3, item(clearanceText(f, "vessel")));
-    screws_->setItem(row, 4, item(clearanceText(f, "neural")));
-    const auto& a = f.contains("angles") ? f["angles"] : nlohmann::json();
-    screws_->setItem(row, 5, item(number(a, "medial_deg")));
-    screws_->setItem(row, 6, item(number(a, "cranial_deg")));
-    if (QString::fromStdString(s.name) == selected) row_of_selected = row;
+    fillRow(static_cast<int>(i), plans[i]);
+    if (QString::fromStdString(plans[i].name) == selected) row_of_selected = static_cast<int>(i);
   }
   if (row_of_selected < 0 && !plans.empty()) row_of_selected = 0;
   if (row_of_selected >= 0) {
@@ -260,12 +266,14 @@ void PlanningPanel::setPlan(const std::vector<workflow::PlannedScrew>& plans) {
 }
 
 void PlanningPanel::updateScrew(const workflow::PlannedScrew& screw) {
-  for (auto& s : plans_) {
-    if (s.name == screw.name) s = screw;
+  for (std::size_t i = 0; i < plans_.size(); ++i) {
+    if (plans_[i].name != screw.name) continue;
+    plans_[i] = screw;
+    filling_ = true;
+    fillRow(static_cast<int>(i), screw);
+    if (selectedScrew() == QString::fromStdString(screw.name)) fillFields(screw);
+    filling_ = false;
   }
-  const QString selected = selectedScrew();
-  setPlan(plans_);
-  if (!selected.isEmpty()) selectScrew(selected);
 }
 
 void PlanningPanel::setFiducials(const std::vector<workflow::FiducialPoint>& fiducials) {

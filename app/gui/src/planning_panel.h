@@ -61,6 +61,8 @@ class PlanningPanel : public QWidget {
  private:
   void fillFields(const workflow::PlannedScrew& screw);
   void emitEdit();
+  /// Row `row` of the screw table shows `screw` (its cells' texts, created when missing).
+  void fillRow(int row, const workflow::PlannedScrew& screw);
   static QString figuresText(const nlohmann::json& figures);
 
   std::vector<workflow::PlannedScrew> plans_;

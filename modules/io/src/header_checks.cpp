@@ -13,6 +13,7 @@
 #include <cstring>
 #include <fstream>
 #include <map>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -49,6 +50,53 @@ std::vector<unsigned char> readAll(const std::filesystem::path& path, bool& comp
   return bytes;
 }
 
+/// The first `count` decompressed bytes of a (possibly gzipped) file (fewer when it is shorter).
+std::vector<unsigned char> readStart(const std::filesystem::path& path, std::size_t count) {
+  std::vector<unsigned char> bytes(count);
+  gzFile gz = gzopen(path.string().c_str(), "rb");
+  if (gz == nullptr) return {};
+  const int n = gzread(gz, bytes.data(), static_cast<unsigned>(count));
+  gzclose(gz);
+  bytes.resize(n > 0 ? static_cast<std::size_t>(n) : 0);
+  return bytes;
+}
+
+/// The decompressed length of a (possibly gzipped) file, counted without keeping it; `complete` is false when
+/// the compressed stream ends early or is corrupt.
+std::uint64_t decompressedLength(const std::filesystem::path& path, bool& complete) {
+  complete = false;
+  gzFile gz = gzopen(path.string().c_str(), "rb");
+  if (gz == nullptr) return 0;
+  std::vector<unsigned char> chunk(1 << 20);
+  std::uint64_t length = 0;
+  for (;;) {
+    const int n = gzread(gz, chunk.data(), static_cast<unsigned>(chunk.size()));
+    if (n < 0) break;
+    if (n == 0) {
+      int err = Z_OK;
+      gzerror(gz, &err);
+      complete = (err == Z_OK || err == Z_STREAM_END);
+      break;
+    }
+    length += static_cast<std::uint64_t>(n);
+  }
+  gzclose(gz);
+  return length;
+}
+
+/// A gzip file's own record of its uncompressed length (ISIZE: the last member's length modulo 2^32); none for
+/// a file that is not gzip.
+std::optional<std::uint32_t> gzipRecordedLength(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  unsigned char magic[2] = {0, 0};
+  if (!in.read(reinterpret_cast<char*>(magic), 2) || magic[0] != 0x1f || magic[1] != 0x8b) return std::nullopt;
+  in.seekg(-4, std::ios::end);
+  unsigned char trailer[4] = {0, 0, 0, 0};
+  if (!in.read(reinterpret_cast<char*>(trailer), 4)) return std::nullopt;
+  return static_cast<std::uint32_t>(trailer[0]) | (static_cast<std::uint32_t>(trailer[1]) << 8) |
+         (static_cast<std::uint32_t>(trailer[2]) << 16) | (static_cast<std::uint32_t>(trailer[3]) << 24);
+}
+
 template <typename T>
 T field(const std::vector<unsigned char>& h, std::size_t at) {
   T v;
@@ -69,8 +117,7 @@ bool isLittleEndianNifti1(const std::vector<unsigned char>& h) {
 }  // namespace
 
 void checkNiftiLength(const std::filesystem::path& path) {
-  bool complete = false;
-  const std::vector<unsigned char> bytes = readAll(path, complete);
+  const std::vector<unsigned char> bytes = readStart(path, kHeaderSize);
   if (!isLittleEndianNifti1(bytes) || std::memcmp(bytes.data() + 344, "n+1", 4) != 0) return;
   const int dims = field<std::int16_t>(bytes, 40);
   if (dims < 1 || dims > 7)
@@ -85,11 +132,23 @@ void checkNiftiLength(const std::filesystem::path& path) {
   const auto bitpix = static_cast<std::uint64_t>(std::max<std::int16_t>(field<std::int16_t>(bytes, 72), 0));
   const auto offset = static_cast<std::uint64_t>(std::max(field<float>(bytes, 108), 0.0F));
   const std::uint64_t expected = offset + voxels * bitpix / 8;
-  if (!complete || bytes.size() < expected) {
+  // Most files answer from their size (plain) or their gzip trailer (a truncated stream ends in compressed data,
+  // which matches the expected length by chance once in 2^32); only the rest are decompressed to be counted,
+  // instead of decompressing every CT twice (here and in the reader).
+  bool complete = true;
+  std::uint64_t length = 0;
+  if (const auto recorded = gzipRecordedLength(path)) {
+    if (*recorded == static_cast<std::uint32_t>(expected & 0xffffffffULL)) return;
+    length = decompressedLength(path, complete);
+  } else {
+    std::error_code ec;
+    length = std::filesystem::file_size(path, ec);
+    if (ec) return;  // the reader says why it cannot read it
+  }
+  if (!complete || length < expected) {
     throw FormatError("NIfTI file " + quoted(path) + " is truncated: its header declares " + std::to_string(expected) +
                       " bytes but " + (complete ? "" : "the compressed stream breaks off after ") +
-                      std::to_string(bytes.size()) + (complete ? " are present" : " bytes") +
-                      "; copy or export it again");
+                      std::to_string(length) + (complete ? " are present" : " bytes") + "; copy or export it again");
   }
 }
 

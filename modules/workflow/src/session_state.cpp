@@ -5,10 +5,12 @@
 #include <algorithm>
 #include <cctype>
 #include <map>
+#include <set>
 #include <string>
 
 #include "mrsns/core/error.h"
 #include "mrsns/core/log.h"
+#include "mrsns/io/image_io.h"
 #include "mrsns/io/landmarks_io.h"
 #include "mrsns/workflow/session_document.h"
 
@@ -125,12 +127,20 @@ void deriveStepProducts(Json& state) {
     RecordingEntry entry;
   };
   std::vector<Recorded> recordings;
-  for (const auto& [step, entry] : state.at("steps").items()) {
-    if (!entry.is_object()) continue;
+  // The patient's images are data, not recordings, whatever their extension (a CT kept as .mha).
+  std::set<std::string> patient_files;
+  for (const char* key : {"images", "label_maps"}) {
+    if (!state.contains(key) || !state[key].is_array()) continue;
+    for (const auto& e : state[key]) {
+      if (e.is_object() && e.contains("file") && e["file"].is_string()) patient_files.insert(e["file"].get<std::string>());
+    }
+  }
+  const auto consider = [&](const std::string& step, const Json& entry) {
+    if (!entry.is_object()) return;
     const std::int64_t sequence = entry.value("sequence", std::int64_t{0});
     const Json outputs = stringsOf(entry, "outputs");
     for (const auto& output : outputs) {
-      if (!output.is_string()) continue;
+      if (!output.is_string() || patient_files.count(output.get<std::string>()) > 0) continue;
       const std::string kind = recordingKind(output.get<std::string>());
       if (kind.empty()) continue;
       Recorded r;
@@ -140,9 +150,9 @@ void deriveStepProducts(Json& state) {
       r.entry.provenance = stepProvenance(step, entry);
       recordings.push_back(std::move(r));
     }
-    if (!stepSucceeded(entry) || !entry.contains("figures") || !entry["figures"].is_object()) continue;
+    if (!stepSucceeded(entry) || !entry.contains("figures") || !entry["figures"].is_object()) return;
     const Json& figures = entry["figures"];
-    if (!figures.contains("transforms") || !figures["transforms"].is_object()) continue;
+    if (!figures.contains("transforms") || !figures["transforms"].is_object()) return;
     for (const auto& [name, matrix] : figures["transforms"].items()) {
       if (!matrix.is_array() || matrix.size() != 16) continue;
       auto it = latest.find(name);
@@ -173,6 +183,11 @@ void deriveStepProducts(Json& state) {
       c.entry.provenance.quality = qualityFigures(entry);
       latest[name] = std::move(c);
     }
+  };
+  for (const auto& [step, entry] : state.at("steps").items()) {
+    consider(step, entry);
+    // A step that failed on a re-run keeps its last success (Session::recordStep): its calibration stands.
+    if (entry.is_object() && entry.contains("last_ok")) consider(step, entry["last_ok"]);
   }
   Json calibrations = Json::object();
   Json registrations = Json::object();
@@ -183,8 +198,12 @@ void deriveStepProducts(Json& state) {
   state["registrations"] = std::move(registrations);
   std::stable_sort(recordings.begin(), recordings.end(),
                    [](const Recorded& a, const Recorded& b) { return a.sequence < b.sequence; });
+  // One entry per file (a step's kept last success names the files its failed re-run may name again).
   Json list = Json::array();
-  for (const auto& r : recordings) list.push_back(r.entry);
+  std::set<std::string> listed;
+  for (auto r = recordings.rbegin(); r != recordings.rend(); ++r) {
+    if (listed.insert(r->entry.file).second) list.insert(list.begin(), r->entry);
+  }
   state["recordings"] = std::move(list);
 }
 
@@ -219,6 +238,21 @@ void migrateVersion1Content(Json& state, const fs::path& folder) {
         ct.spacing_mm = vec3(f["spacing_mm"]);
       }
       ct.provenance = migrated("import-ct", entry);
+      // A version-1 record holds the size and spacing only: the CT's whole geometry from the file itself, so the
+      // checks that a model, fiducial or screw lies inside the CT use the CT's true box.
+      try {
+        const auto read = io::readImageFile(folder / ct.file);
+        const ImageVolume& image = read.image;
+        ct.size_px = image.size;
+        ct.spacing_mm = image.spacing;
+        ct.origin_mm = image.origin;
+        ct.direction = image.direction;
+        ct.pixel_type = pixelTypeName(image.pixel_type);
+        ct.format = io::imageFormatName(read.format);
+        ct.modality = read.modality;
+      } catch (const mrsns::Error& e) {
+        ct.provenance.quality["geometry"] = std::string("only the size and spacing of the version-1 record: ") + e.what();
+      }
       state["images"].push_back(ct);
     }
   }

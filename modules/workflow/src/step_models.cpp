@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "mrsns/core/error.h"
+#include "mrsns/core/parallel.h"
 #include "mrsns/core/mesh_ops.h"
 #include "mrsns/io/file_names.h"
 #include "mrsns/io/mesh_io.h"
@@ -147,10 +148,10 @@ StepResult runMakeModels(Session& session, const Json& params, const StepContext
     context.report(0.15, "meshing " + std::to_string(chosen.size()) + " label(s) of " + map.id);
     const auto meshes = registration::meshLabelMap(labels, options);
     checkCancel(context);
-    std::size_t n = 0;
+    // The entries first (their ids depend on one another's names), then each model's files and headset copy
+    // on its own thread: decimating a vertebra for the headset takes a good part of a second.
+    std::vector<ModelEntry> entries;
     for (const auto& m : meshes.meshes) {
-      context.report(0.6 + 0.35 * static_cast<double>(n++) / static_cast<double>(meshes.meshes.size()),
-                     "writing " + m.name);
       ModelEntry e;
       e.vertebra = vertebraName(m.name);
       e.name = e.vertebra.empty() ? m.name : e.vertebra;
@@ -164,9 +165,20 @@ StepResult runMakeModels(Session& session, const Json& params, const StepContext
       e.voxel_volume_ml = m.voxel_volume_ml;
       e.volume_tolerance_ml = m.volume_tolerance_ml;
       e.provenance = madeBy("make-models");
-      e = writeModelFiles(session, m.mesh, e, hmd, result.outputs);
-      e.provenance.quality = modelFigures(e);
-      made.push_back(e);
+      entries.push_back(std::move(e));
+    }
+    context.report(0.6, "writing " + std::to_string(entries.size()) + " model(s) and their headset copies");
+    std::vector<std::vector<std::string>> outputs(entries.size());
+    fs::create_directories(session.resolve("models/hmd"));
+    parallelForBlocks(0, entries.size(), [&](std::size_t begin, std::size_t end) {
+      for (std::size_t i = begin; i < end; ++i) {
+        entries[i] = writeModelFiles(session, meshes.meshes[i].mesh, entries[i], hmd, outputs[i]);
+        entries[i].provenance.quality = modelFigures(entries[i]);
+      }
+    });
+    for (std::size_t i = 0; i < entries.size(); ++i) {
+      result.outputs.insert(result.outputs.end(), outputs[i].begin(), outputs[i].end());
+      made.push_back(entries[i]);
     }
   } else {
     if (p.has("label_map") || p.has("labels")) {

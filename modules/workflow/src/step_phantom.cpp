@@ -87,6 +87,26 @@ StepResult runImportPhantom(Session& session, const Json& params, const StepCont
   const double metal_hu = std::min(2000.0, registration::PhantomDensities::cortical_bone + 700.0);
   run("find-fiducials", {{"source", "threshold"}, {"threshold_hu", metal_hu}}, 0.75, 0.9);
   run("import-plan", {{"path", plan_file.string()}}, 0.9, 1.0);
+  // Generated, not scanned: every entry made from the phantom says so (a simulated patient is never presented
+  // as a measurement of a real one).
+  if (auto ct = session.ct()) {
+    ct->provenance.simulated = true;
+    session.setCt(*ct);
+  }
+  for (auto labels : session.labelMaps()) {
+    labels.provenance.simulated = true;
+    session.putLabelMap(labels);
+  }
+  auto models = session.models();
+  for (auto& m : models) m.provenance.simulated = true;
+  session.putModels(models);
+  if (auto fiducials = session.fiducials()) {
+    fiducials->provenance.simulated = true;
+    session.setFiducials(*fiducials);
+  }
+  auto plans = session.plans();
+  for (auto& screw : plans) screw.provenance.simulated = true;
+  session.setPlans(plans);
   result.figures["steps"] = steps;
   result.figures["phantom"] = {{"spacing_mm", options.spacing_mm},
                                {"seed", options.seed},

@@ -248,6 +248,9 @@ bool Params::boolean(const std::string& key, bool fallback) const {
 std::string Params::text(const std::string& key, const std::string& fallback) const {
   if (!params_.contains(key)) return fallback;
   const auto& v = params_.at(key);
+  // A command line gives series=2 or labels=31 as numbers (--param values are read as JSON): the text they stand for.
+  if (v.is_number_integer() || v.is_number_unsigned()) return v.dump();
+  if (v.is_number_float()) return v.dump();
   if (!v.is_string()) wrongType(key, "a string");
   return v.get<std::string>();
 }

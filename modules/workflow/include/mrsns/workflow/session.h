@@ -30,9 +30,11 @@ class Session {
   /// unreadable, FormatError when it is not valid JSON, lacks "version" or
   /// "steps", or has a version this build does not know. A version-1 session
   /// is upgraded: its file is kept as session.v1.json beside the new one, every
-  /// step record stays, and what the typed document can tell from them (the
-  /// calibrations, the imported CT and meshes, a registration's models and
-  /// plan) is filled in, marked provenance "migration"; the log says so.
+  /// step record stays, and what the typed document can tell from them is
+  /// filled in: the imported CT (its geometry read from the file), meshes and
+  /// landmarks and a registration's models and plan marked provenance
+  /// "migration"; the calibrations and registrations derived from the step
+  /// records as for any session (provenance "step"); the log says so.
   static Session open(const std::filesystem::path& folder);
 
   [[nodiscard]] const std::filesystem::path& folder() const { return folder_; }
@@ -49,6 +51,9 @@ class Session {
   void recordStep(const std::string& step, const nlohmann::json& result);
   /// The recorded result of `step`, or null when it has not run.
   [[nodiscard]] nlohmann::json step(const std::string& step) const;
+  /// The step's last successful record: its record when it succeeded, else the success kept beside a re-run
+  /// that failed or was cancelled ("last_ok"), else null. What a later step uses (a tip, a calibration).
+  [[nodiscard]] nlohmann::json lastSuccess(const std::string& step) const;
   /// Appends a line to the session log ({"time","level","message"}) and saves.
   void log(const std::string& level, const std::string& message);
   /// Writes session.json atomically (temporary file, fsync, rename).

@@ -67,7 +67,9 @@ struct LabelMapEntry {
   std::string name;
   std::string scheme;  ///< "totalsegmentator", "verse", "generic"
   /// How it was put on the CT's grid: "same-grid" (as given), "embedded" (a crop
-  /// of the CT's grid placed in it), "resampled" (nearest neighbour onto it).
+  /// of the CT's grid placed in it), "resampled" (nearest neighbour onto it),
+  /// "aligned" (a crop whose header is stale, shifted by whole voxels onto the
+  /// label map it shares vertebrae with: import-label-map align_to=).
   std::string placement = "same-grid";
   std::vector<LabelEntry> labels;
   Provenance provenance;

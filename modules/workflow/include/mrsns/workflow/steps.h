@@ -56,8 +56,10 @@ struct StepResult {
 /// robot-assisted placement.
 std::vector<StepInfo> listSteps();
 
-/// Runs `step` on `session` with `params` (a JSON object; every parameter
-/// has a default that works on the bundled data), records the result in the
+/// Runs `step` on `session` with `params` (a JSON object; the steps on the
+/// user's data need the file they import, path=, and the rest of their
+/// parameters, like every parameter of the other steps, have defaults that
+/// work on the bundled data), records the result in the
 /// session and returns it. Throws InvalidArgumentError for an unknown step or
 /// parameter, other mrsns::Error subclasses for bad input; returns ok=false,
 /// cancelled=true when context.cancel was raised.
