@@ -51,7 +51,7 @@ BoardDefinition boardOfStep(const Params& p) {
 
 std::optional<std::filesystem::path> digitisedCorners(const Session& session, const std::string& board_tool,
                                                       const hmd::CheckerboardSpec& spec) {
-  const auto entry = session.lastSuccess("checkerboard-digitisation");
+  const auto entry = session.step("checkerboard-digitisation");
   if (entry.is_null() || entry.value("status", "") != "ok" || !entry.contains("figures")) return std::nullopt;
   const auto& f = entry["figures"];
   // A session file edited by hand: anything not as this step wrote it is not a digitisation to use.

@@ -6,7 +6,7 @@ namespace mrsns::workflow::detail {
 Eigen::Vector3d pivotTip(const Session& session, const std::string& tool, const std::string& pivot_step,
                          const std::string& step, const std::string& why) {
   const std::string name = tool + "TipTo" + tool;
-  const auto pivot = session.lastSuccess(pivot_step);
+  const auto pivot = session.step(pivot_step);
   const bool ok = pivot.is_object() && pivot.value("status", "") == "ok" && pivot.contains("figures") &&
                   pivot["figures"].contains("transforms") && pivot["figures"]["transforms"].contains(name);
   if (!ok) {

@@ -185,18 +185,6 @@ void Session::recordStep(const std::string& step, const nlohmann::json& result) 
   const std::int64_t sequence = state_.value("step_sequence", std::int64_t{0}) + 1;
   state_["step_sequence"] = sequence;
   entry["sequence"] = sequence;
-  // A re-run that failed or was cancelled keeps the step's last success beside it: a failed recalibration
-  // leaves the calibration in use as it was (as PLUS and Slicer keep a transform until a new one is computed).
-  if (entry.value("status", "ok") != "ok" && state_["steps"].contains(step)) {
-    const auto& previous = state_["steps"][step];
-    if (previous.is_object() && previous.value("status", "ok") == "ok") {
-      nlohmann::json kept = previous;
-      kept.erase("last_ok");
-      entry["last_ok"] = std::move(kept);
-    } else if (previous.is_object() && previous.contains("last_ok")) {
-      entry["last_ok"] = previous["last_ok"];
-    }
-  }
   state_["steps"][step] = std::move(entry);
   state_["modified"] = isoTimeNow();
   deriveFromSteps();
@@ -207,14 +195,6 @@ nlohmann::json Session::step(const std::string& step) const {
   const auto& steps = state_.at("steps");
   const auto it = steps.find(step);
   return it == steps.end() ? nlohmann::json() : *it;
-}
-
-nlohmann::json Session::lastSuccess(const std::string& step) const {
-  nlohmann::json record = this->step(step);
-  if (!record.is_object()) return nullptr;
-  if (record.value("status", "ok") == "ok") return record;
-  if (record.contains("last_ok") && record["last_ok"].is_object()) return record["last_ok"];
-  return nullptr;
 }
 
 void Session::log(const std::string& level, const std::string& message) {

@@ -186,8 +186,6 @@ void deriveStepProducts(Json& state) {
   };
   for (const auto& [step, entry] : state.at("steps").items()) {
     consider(step, entry);
-    // A step that failed on a re-run keeps its last success (Session::recordStep): its calibration stands.
-    if (entry.is_object() && entry.contains("last_ok")) consider(step, entry["last_ok"]);
   }
   Json calibrations = Json::object();
   Json registrations = Json::object();
@@ -198,7 +196,7 @@ void deriveStepProducts(Json& state) {
   state["registrations"] = std::move(registrations);
   std::stable_sort(recordings.begin(), recordings.end(),
                    [](const Recorded& a, const Recorded& b) { return a.sequence < b.sequence; });
-  // One entry per file (a step's kept last success names the files its failed re-run may name again).
+  // One entry per file (a step run again names its files again).
   Json list = Json::array();
   std::set<std::string> listed;
   for (auto r = recordings.rbegin(); r != recordings.rend(); ++r) {

@@ -98,7 +98,7 @@ struct RegisteredPatient {
 };
 
 std::optional<RegisteredPatient> registeredPatient(const Session& session) {
-  const auto entry = session.lastSuccess("registration");
+  const auto entry = session.step("registration");
   if (entry.is_null() || entry.value("status", "") != "ok" || !entry.contains("figures")) return std::nullopt;
   const auto& f = entry["figures"];
   if (!f.contains("transforms") || !f["transforms"].contains("CTToPatient") || !f.contains("landmarks")) {

@@ -61,7 +61,7 @@ void configureDrill(const Session& session, const Json& calibration, NavigationR
                                "(MarkerToFlange): the session's robot calibration has none; run robot-calibration "
                                "with source=ur on this robot");
   }
-  const auto drill = session.lastSuccess("drill-calibration");
+  const auto drill = session.step("drill-calibration");
   if (!drill.is_object() || drill.value("status", "") != "ok" || !drill.contains("figures") ||
       !drill["figures"].contains("transforms") || !drill["figures"]["transforms"].contains("FlangeTipToFlange")) {
     throw InvalidArgumentError("navigation: robot=ur needs the drill's tip (FlangeTipToFlange): run "
@@ -72,7 +72,7 @@ void configureDrill(const Session& session, const Json& calibration, NavigationR
   const Eigen::Isometry3d marker_T_tip(matrixFromJson(drill["figures"]["transforms"]["FlangeTipToFlange"],
                                                       "session.json steps.drill-calibration FlangeTipToFlange"));
   // The drilling direction (the tip frame's z): the drill's own axis, from turning it about its axis.
-  const auto spin = session.lastSuccess("drill-spin-calibration");
+  const auto spin = session.step("drill-spin-calibration");
   if (!spin.is_object() || spin.value("status", "") != "ok" || !spin.contains("figures") ||
       !spin["figures"].contains("shaft_marker")) {
     throw InvalidArgumentError("navigation: robot=ur needs the drill's axis: run drill-spin-calibration on this "
@@ -108,7 +108,7 @@ void configureUr(const Session& session, const Params& params, NavigationOptions
   ro.ur_script_port = params.integer("ur_script_port", ro.ur_script_port);
   ro.ur_dashboard_port = params.integer("ur_dashboard_port", ro.ur_dashboard_port);
   ro.ur_silence_s = params.number("ur_silence_s", ro.ur_silence_s);
-  const auto calibration = session.lastSuccess("robot-calibration");
+  const auto calibration = session.step("robot-calibration");
   const bool calibrated = calibration.is_object() && calibration.value("status", "") == "ok" &&
                           calibration.contains("figures") && calibration["figures"].contains("transforms") &&
                           calibration["figures"]["transforms"].contains("RobotBaseToTracker");

@@ -23,7 +23,7 @@ Eigen::Isometry3d isometry(const Eigen::Matrix4d& m) {
 
 Eigen::Isometry3d recorded(const Session& session, const std::string& step, const std::string& group,
                            const std::string& name) {
-  const auto entry = session.lastSuccess(step);
+  const auto entry = session.step(step);
   if (entry.is_null() || entry.value("status", "") != "ok" || !entry["figures"].contains(group) ||
       !entry["figures"][group].contains(name)) {
     throw InvalidArgumentError("this step needs '" + step + "' to have run successfully first (no " + name +

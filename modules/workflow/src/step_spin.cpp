@@ -254,7 +254,7 @@ Eigen::Vector3d sessionTip(const Session& session, const Params& p, const std::s
 /// calibration placed the marker on the flange (a drill's marker sits on a bracket beside its axis).
 Eigen::Vector3d shaftLineStart(const Session& session, const std::string& step) {
   if (step != "drill-spin-calibration") return Eigen::Vector3d::Zero();
-  const auto calibration = session.lastSuccess("robot-calibration");
+  const auto calibration = session.step("robot-calibration");
   const bool has = calibration.is_object() && calibration.value("status", "") == "ok" &&
                    calibration.contains("figures") && calibration["figures"].contains("transforms") &&
                    calibration["figures"]["transforms"].contains("MarkerToFlange");

@@ -92,7 +92,7 @@ std::string usePhantomRegistration(const Session& session, const std::string& wh
     throw InvalidArgumentError("us-spatial-calibration: phantom_to_reference must be session or config, not '" +
                                which + "'");
   }
-  const auto registration = session.lastSuccess("us-phantom-registration");
+  const auto registration = session.step("us-phantom-registration");
   Eigen::Matrix4d reference_T_phantom;
   if (!registration.is_object() || registration.value("status", "") != "ok" ||
       !findRecordedTransform(session, "PhantomToReference", reference_T_phantom)) {
@@ -297,7 +297,7 @@ StepResult runUsSpatialCalibration(Session& session, const Json& params, const S
   } else if (p.has("tracker_lag_ms")) {
     lag.lag_s = p.number("tracker_lag_ms", 0.0) * 1e-3;
   } else {
-    const auto temporal = session.lastSuccess("us-temporal-calibration");
+    const auto temporal = session.step("us-temporal-calibration");
     const Json* recorded = nullptr;
     if (temporal.is_object() && temporal.value("status", "") == "ok" && temporal.contains("figures") &&
         temporal["figures"].contains("tracker_lag_ms") && temporal["figures"]["tracker_lag_ms"].is_number()) {

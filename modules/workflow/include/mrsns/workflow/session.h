@@ -51,9 +51,6 @@ class Session {
   void recordStep(const std::string& step, const nlohmann::json& result);
   /// The recorded result of `step`, or null when it has not run.
   [[nodiscard]] nlohmann::json step(const std::string& step) const;
-  /// The step's last successful record: its record when it succeeded, else the success kept beside a re-run
-  /// that failed or was cancelled ("last_ok"), else null. What a later step uses (a tip, a calibration).
-  [[nodiscard]] nlohmann::json lastSuccess(const std::string& step) const;
   /// Appends a line to the session log ({"time","level","message"}) and saves.
   void log(const std::string& level, const std::string& message);
   /// Writes session.json atomically (temporary file, fsync, rename).
@@ -101,8 +98,11 @@ class Session {
   /// new CT replaces is kept in the document, never deleted. Saves.
   void setAsidePatientData(const std::string& reason);
 
-  /// The latest successful calibration or registration named `name`
-  /// ("StylusTipToStylus", "CTToPatient"), as the step records give it.
+  /// The calibration or registration named `name` ("StylusTipToStylus",
+  /// "CTToPatient") from the latest step record that gives it among the
+  /// steps whose latest run succeeded. A step run again that failed or was
+  /// cancelled gives nothing any more: a failed recalibration puts the tool
+  /// in doubt, so its earlier result is not used silently (run it again).
   [[nodiscard]] std::optional<TransformEntry> transform(const std::string& name) const;
   [[nodiscard]] std::vector<TransformEntry> calibrations() const;
   [[nodiscard]] std::vector<TransformEntry> registrations() const;
