@@ -9,6 +9,7 @@
 #include <deque>
 #include <map>
 #include <mutex>
+#include <set>
 #include <thread>
 
 #include "mrsns/core/error.h"
@@ -404,18 +405,26 @@ std::uint16_t freeLocalPort(const std::string& address) {
   int low = 32768;
   if (std::ifstream range("/proc/sys/net/ipv4/ip_local_port_range"); range) range >> low;
   const int top = std::clamp(low - 1, 2048, 65535);
-  const int bottom = std::max(1024, top - 12000);
+  const int bottom = std::max(1024, top - 20000);
+  // A port handed out earlier in this process is not handed out again: several
+  // rooms started at once (tests run their seeds concurrently) would
+  // otherwise race for the same free port between this check and their bind.
+  static std::mutex handed_out_mutex;
+  static std::set<std::uint16_t> handed_out;
+  const std::lock_guard lock(handed_out_mutex);
   std::mt19937 rng(std::random_device{}());
   std::uniform_int_distribution<int> pick(bottom, top);
   std::string last_error = "no attempt";
   for (int attempt = 0; attempt < 200; ++attempt) {
     const auto port = static_cast<std::uint16_t>(pick(rng));
+    if (handed_out.contains(port)) continue;
     try {
       asio::io_context io;
       asio::ip::tcp::acceptor acceptor(io);
       const asio::ip::tcp::endpoint endpoint(asio::ip::make_address(address), port);
       acceptor.open(endpoint.protocol());
       acceptor.bind(endpoint);
+      handed_out.insert(port);
       return port;
     } catch (const std::exception& e) {
       last_error = e.what();
