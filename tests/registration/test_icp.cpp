@@ -300,6 +300,48 @@ TEST(Icp, PerPointDistancesMatchBruteForce) {
   }
 }
 
+TEST(Icp, CoarseToFineFiguresAreThoseAtTheResult) {
+  // 6000 points: the iterations run on subsets first, and the figures of a
+  // run that ends on a step below the tolerance come from its last search.
+  const auto& s = scene();
+  const auto many = test::transformPoints(s.truth.inverse(), test::sampleSurface(s.mesh, 6000, kSigma, 21));
+  std::mt19937_64 rng(22);
+  const auto start = test::randomPerturbation(rng, 10 * kDegree, 10.0, Eigen::Vector3d::Zero()) * s.truth;
+  const auto r = registerSurface(many, s.surface, start);
+  ASSERT_TRUE(r.converged);
+  ASSERT_EQ(r.distances_mm.size(), many.size());
+  double sum = 0.0;
+  for (std::size_t i = 0; i < many.size(); ++i) {
+    const double brute = s.surface.locator().closestPointBruteForce(r.fixed_T_moving * many[i]).distance;
+    if (i % 53 == 0) {
+      EXPECT_NEAR(r.distances_mm[i], brute, 1e-9);
+    }
+    sum += brute * brute;
+  }
+  EXPECT_NEAR(r.rms_mm, std::sqrt(sum / static_cast<double>(many.size())), 1e-9);
+  expectNearTruth(r, s.truth, 0.15 * kDegree, 0.05, centroid(many));
+}
+
+TEST(Icp, PointToPlaneStepsShrinkBelowTheMotionTolerance) {
+  // The plane of a point whose closest point is on an edge or corner is the
+  // distance's tangent plane: the steps then converge instead of bouncing
+  // between the neighbouring faces' normals (which stalled at 0.3-1
+  // micrometre, above the 0.1 micrometre tolerance). Without the flat-RMS
+  // test only the motion test can end the runs.
+  const auto& s = scene();
+  std::mt19937_64 rng(31);
+  for (int k = 0; k < 4; ++k) {
+    const auto start = test::randomPerturbation(rng, 10 * kDegree, 10.0, Eigen::Vector3d::Zero()) * s.truth;
+    IcpOptions o;
+    o.relative_rms_tolerance = 0.0;
+    o.max_iterations = 40;
+    const auto r = registerSurface(s.moving, s.surface, start, o);
+    SCOPED_TRACE("start " + std::to_string(k));
+    EXPECT_TRUE(r.converged) << r.iterations << " iterations";
+    expectNearTruth(r, s.truth);
+  }
+}
+
 TEST(IcpInitialAlignment, LandmarksBringAFarStartIntoTheBasin) {
   const auto& s = scene();
   // Four landmarks picked on the surface with 1 mm localisation error.

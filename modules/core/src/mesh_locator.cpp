@@ -8,6 +8,7 @@
 #include <utility>
 
 #include "mrsns/core/error.h"
+#include "mrsns/core/parallel.h"
 
 namespace mrsns {
 namespace {
@@ -173,7 +174,7 @@ MeshLocator::MeshLocator(const TriangleMesh& mesh, const MeshLocatorOptions& opt
     throw InvalidArgumentError("MeshLocatorOptions::max_leaf_faces must be >= 1 (got " +
                                std::to_string(options.max_leaf_faces) + ")");
   }
-  face_normals_ = faceNormals(mesh);
+  face_normals_ = mrsns::faceNormals(mesh);
   scale_ = std::max(boundingBox(mesh).diagonal().norm(), 1e-300);
   build(options);
 }
@@ -203,25 +204,20 @@ void MeshLocator::build(const MeshLocatorOptions& options) {
         (vertices_.row(faces_(f, 0)) + vertices_.row(faces_(f, 1)) + vertices_.row(faces_(f, 2))).transpose() / 3.0,
         static_cast<std::int32_t>(f)};
   }
-  nodes_.clear();
-  nodes_.reserve(static_cast<std::size_t>(2 * m / options.max_leaf_faces + 2));
-
   // Median split on the longest axis of the centroid bounds: O(M log M), a
   // balanced tree of depth log2(M), and good enough for closest-point queries.
+  // `split` divides items [begin, end) of a node of `out` between two new
+  // children and gives their ranges, or makes the node a leaf (false).
   struct Task {
     std::int32_t node, begin, end;
   };
-  std::vector<Task> tasks;
-  nodes_.push_back({});
-  tasks.push_back({0, 0, static_cast<std::int32_t>(m)});
-  while (!tasks.empty()) {
-    const Task task = tasks.back();
-    tasks.pop_back();
+  const int max_leaf = options.max_leaf_faces;
+  auto split = [&items, max_leaf](const Task& task, std::vector<Node>& out, std::array<Task, 2>& children) {
     const std::int32_t count = task.end - task.begin;
-    if (count <= options.max_leaf_faces) {
-      nodes_[static_cast<std::size_t>(task.node)].first = task.begin;
-      nodes_[static_cast<std::size_t>(task.node)].count = count;
-      continue;
+    if (count <= max_leaf) {
+      out[static_cast<std::size_t>(task.node)].first = task.begin;
+      out[static_cast<std::size_t>(task.node)].count = count;
+      return false;
     }
     Eigen::Vector3d clo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
     Eigen::Vector3d chi = -clo;
@@ -235,42 +231,115 @@ void MeshLocator::build(const MeshLocatorOptions& options) {
     const std::int32_t mid = task.begin + count / 2;
     std::nth_element(items.begin() + task.begin, items.begin() + mid, items.begin() + task.end,
                      [axis](const Item& x, const Item& y) { return x.centroid[axis] < y.centroid[axis]; });
-    const auto left = static_cast<std::int32_t>(nodes_.size());
-    nodes_[static_cast<std::size_t>(task.node)].left = left;
-    nodes_[static_cast<std::size_t>(task.node)].right = left + 1;
-    nodes_.push_back({});
-    nodes_.push_back({});
-    tasks.push_back({left, task.begin, mid});
-    tasks.push_back({left + 1, mid, task.end});
+    const auto left = static_cast<std::int32_t>(out.size());
+    out[static_cast<std::size_t>(task.node)].left = left;
+    out[static_cast<std::size_t>(task.node)].right = left + 1;
+    out.push_back({});
+    out.push_back({});
+    children = {Task{left, task.begin, mid}, Task{left + 1, mid, task.end}};
+    return true;
+  };
+  // The top levels are split here until there is a subtree per thread; the
+  // subtrees (disjoint ranges of items) are then built concurrently, each
+  // into its own node list, and appended. The tree is the same for any
+  // thread count: only where its nodes are stored differs.
+  nodes_.clear();
+  nodes_.reserve(static_cast<std::size_t>(2 * m / max_leaf + 2));
+  nodes_.push_back({});
+  std::vector<Task> subtrees{{0, 0, static_cast<std::int32_t>(m)}};
+  const std::size_t threads = m >= 8192 ? std::min<std::size_t>(defaultThreadCount(), 8) : 1;
+  while (subtrees.size() < threads) {
+    std::vector<Task> next;
+    for (const Task& task : subtrees) {
+      std::array<Task, 2> children{};
+      if (split(task, nodes_, children)) next.insert(next.end(), children.begin(), children.end());
+    }
+    subtrees = std::move(next);
+    if (subtrees.empty()) break;  // all leaves already
   }
+  std::vector<std::vector<Node>> built(subtrees.size());
+  parallelForBlocks(
+      0, subtrees.size(),
+      [&](std::size_t first, std::size_t last) {
+        for (std::size_t k = first; k < last; ++k) {
+          std::vector<Node>& out = built[k];
+          const std::int32_t count = subtrees[k].end - subtrees[k].begin;
+          out.reserve(static_cast<std::size_t>(2 * count / max_leaf + 2));
+          out.push_back({});
+          std::vector<Task> tasks{{0, subtrees[k].begin, subtrees[k].end}};
+          while (!tasks.empty()) {
+            const Task task = tasks.back();
+            tasks.pop_back();
+            std::array<Task, 2> children{};
+            if (split(task, out, children)) tasks.insert(tasks.end(), children.begin(), children.end());
+          }
+        }
+      },
+      static_cast<unsigned>(subtrees.size()));
   // Corners copied in leaf order: a leaf's triangles then sit in one or two
   // cache lines instead of behind two indirections.
   order_.resize(items.size());
   triangles_.resize(items.size());
-  for (std::size_t i = 0; i < items.size(); ++i) {
-    order_[i] = items[i].face;
-    for (int k = 0; k < 3; ++k) {
-      triangles_[i][static_cast<std::size_t>(k)] = vertices_.row(faces_(order_[i], k)).transpose();
-    }
-  }
-  // Bounds bottom-up: children always come after their parent in nodes_.
-  for (auto n = nodes_.size(); n-- > 0;) {
-    Node& node = nodes_[n];
-    if (node.count > 0) {
-      node.lo = node.hi = triangles_[static_cast<std::size_t>(node.first)][0];
-      for (std::int32_t i = node.first; i < node.first + node.count; ++i) {
-        for (const Eigen::Vector3d& corner : triangles_[static_cast<std::size_t>(i)]) {
-          node.lo = node.lo.cwiseMin(corner);
-          node.hi = node.hi.cwiseMax(corner);
+  parallelForBlocks(
+      0, items.size(),
+      [&](std::size_t first, std::size_t last) {
+        for (std::size_t i = first; i < last; ++i) {
+          order_[i] = items[i].face;
+          for (int k = 0; k < 3; ++k) {
+            triangles_[i][static_cast<std::size_t>(k)] = vertices_.row(faces_(order_[i], k)).transpose();
+          }
         }
+      },
+      0, 16384);
+  // Bounds bottom-up (children always come after their parent): each
+  // subtree's concurrently, then the top levels'.
+  auto bound = [this](std::vector<Node>& nodes, std::size_t from, std::size_t to) {
+    for (auto n = to; n-- > from;) {
+      Node& node = nodes[n];
+      if (node.count > 0) {
+        node.lo = node.hi = triangles_[static_cast<std::size_t>(node.first)][0];
+        for (std::int32_t i = node.first; i < node.first + node.count; ++i) {
+          for (const Eigen::Vector3d& corner : triangles_[static_cast<std::size_t>(i)]) {
+            node.lo = node.lo.cwiseMin(corner);
+            node.hi = node.hi.cwiseMax(corner);
+          }
+        }
+      } else {
+        const Node& l = nodes[static_cast<std::size_t>(node.left)];
+        const Node& r = nodes[static_cast<std::size_t>(node.right)];
+        node.lo = l.lo.cwiseMin(r.lo);
+        node.hi = l.hi.cwiseMax(r.hi);
       }
-    } else {
-      const Node& l = nodes_[static_cast<std::size_t>(node.left)];
-      const Node& r = nodes_[static_cast<std::size_t>(node.right)];
-      node.lo = l.lo.cwiseMin(r.lo);
-      node.hi = l.hi.cwiseMax(r.hi);
+    }
+  };
+  parallelForBlocks(
+      0, subtrees.size(),
+      [&](std::size_t first, std::size_t last) {
+        for (std::size_t k = first; k < last; ++k) bound(built[k], 0, built[k].size());
+      },
+      static_cast<unsigned>(subtrees.size()));
+  const std::size_t top_count = nodes_.size();
+  for (std::size_t k = 0; k < subtrees.size(); ++k) {
+    // Local node 0 is the subtree's root, already in nodes_; the others follow.
+    const auto base = static_cast<std::int32_t>(nodes_.size());
+    auto global = [&](std::int32_t local) { return local == 0 ? subtrees[k].node : base + local - 1; };
+    for (std::size_t i = 0; i < built[k].size(); ++i) {
+      Node node = built[k][i];
+      if (node.count == 0) {
+        node.left = global(node.left);
+        node.right = global(node.right);
+      }
+      if (i == 0) {
+        nodes_[static_cast<std::size_t>(subtrees[k].node)] = node;
+      } else {
+        nodes_.push_back(node);
+      }
     }
   }
+  // The top levels: inner nodes over the subtrees' roots (or, for a tree
+  // split at the top into leaves only, those leaves). A subtree's root sits
+  // among them and is bounded already; bounding it again gives the same box.
+  bound(nodes_, 0, top_count);
   // The closest-point search walks a compact copy of the inner nodes: each
   // 64-byte record (one cache line) holds both children's boxes, in float
   // rounded outwards, and where they are, so a step down the tree touches

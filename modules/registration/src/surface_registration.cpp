@@ -158,7 +158,16 @@ std::vector<Correspondence> correspond(std::span<const Eigen::Vector3d> moving, 
     k.index = static_cast<int>(i);
     k.p = T * moving[i];
     k.q = sp.point;
-    k.n = fixed.faceNormals().row(sp.face).transpose();
+    // The plane's normal is the gradient of the distance to the surface at
+    // the point: the face's normal when the closest point is inside a face,
+    // the direction to it when it is on an edge or a corner (where the
+    // faces' normals jump, and steps would otherwise bounce between them).
+    const bool on_feature = sp.barycentric.minCoeff() == 0.0;
+    if (on_feature && sp.distance > 1e-9) {
+      k.n = (k.p - sp.point) / sp.distance;
+    } else {
+      k.n = fixed.faceNormals().row(sp.face).transpose();
+    }
     k.distance = sp.distance;
     c.push_back(k);
   }
@@ -262,7 +271,6 @@ IcpSurface::IcpSurface(const TriangleMesh& mesh) {
                                "' has no triangles: give a surface mesh, not an empty mesh or a point cloud");
   }
   locator_ = std::make_shared<const MeshLocator>(mesh);
-  face_normals_ = mrsns::faceNormals(mesh);
   // Exact moments of uniform density over each triangle:
   //   int x dA = A s / 3,  int x x^T dA = A / 12 (sum v v^T + s s^T),  s = a + b + c.
   double area = 0.0;
@@ -316,23 +324,44 @@ IcpResult registerSurface(std::span<const Eigen::Vector3d> moving, const IcpSurf
   double previous_rms = std::numeric_limits<double>::infinity();
   bool coarse = options.method == IcpMethod::PointToPlane && options.point_to_point_warmup_ratio > 0.0;
   std::vector<SurfacePoint> found;
-  // All points in spatial and in index order, and a quarter of them (every
-  // fourth in space, so spread like all of them) for the coarse level: after
-  // the first pass, iterations run on the quarter until they converge, then
-  // on all points until they converge again. Far from the solution a quarter
-  // of the points steers as well as all of them for a quarter of the queries.
+  // Coarse to fine: iterations run on a subset of the points until they
+  // converge, then on the next larger subset, and last on all points until
+  // they converge again. The subsets take every 4^k-th point in spatial
+  // order (so they spread like all of them) and keep at least 1000 points:
+  // far from the solution a few points steer as well as all of them, for a
+  // fraction of the queries, and the far queries are the dear ones (a wide
+  // search around each point). Each subset holds the next coarser one.
+  struct Level {
+    std::vector<std::uint32_t> order;     // spatial order
+    std::vector<std::uint32_t> by_index;  // the same points, ascending
+  };
+  std::vector<Level> levels;  // coarsest first, all points last
   const std::vector<std::uint32_t> order = spatialOrder(moving);
-  std::vector<std::uint32_t> all_by_index(moving.size());
-  std::iota(all_by_index.begin(), all_by_index.end(), 0U);
-  std::vector<std::uint32_t> coarse_order, coarse_by_index;
-  for (std::size_t n = 0; n < order.size(); n += 4) coarse_order.push_back(order[n]);
-  coarse_by_index = coarse_order;
-  std::sort(coarse_by_index.begin(), coarse_by_index.end());
-  const bool use_coarse = options.coarse_to_fine && moving.size() >= 4000;
-  bool coarse_level = false;
+  if (options.coarse_to_fine && moving.size() >= 4000) {
+    for (std::size_t stride = 4; moving.size() / stride >= 1000; stride *= 4) {
+      Level level;
+      for (std::size_t n = 0; n < order.size(); n += stride) level.order.push_back(order[n]);
+      level.by_index = level.order;
+      std::sort(level.by_index.begin(), level.by_index.end());
+      levels.insert(levels.begin(), std::move(level));
+    }
+  }
+  {
+    Level all;
+    all.order = order;
+    all.by_index.resize(moving.size());
+    std::iota(all.by_index.begin(), all.by_index.end(), 0U);
+    levels.push_back(std::move(all));
+  }
+  std::size_t level = 0;
+  // The correspondences of all points from the last iteration, when it
+  // converged by a step too small to matter: the result is then that
+  // iteration's transform, and its figures need no more search.
+  std::vector<Correspondence> last_all;
+  bool figures_ready = false;
   for (int iteration = 0; iteration < options.max_iterations; ++iteration) {
-    const auto c = coarse_level ? correspond(moving, fixed, T, options, previous, found, coarse_order, coarse_by_index)
-                                : correspond(moving, fixed, T, options, previous, found, order, all_by_index);
+    const bool coarse_level = level + 1 < levels.size();
+    auto c = correspond(moving, fixed, T, options, previous, found, levels[level].order, levels[level].by_index);
     if (c.size() < 3) {
       throw ComputationError("ICP: only " + std::to_string(c.size()) + " of " + std::to_string(moving.size()) +
                              " points have a surface point within the correspondence distance at iteration " +
@@ -340,10 +369,7 @@ IcpResult registerSurface(std::span<const Eigen::Vector3d> moving, const IcpSurf
                              ": start closer (initial alignment) or raise max_correspondence_distance_mm");
     }
     const double rms = weightedRms(c);
-    if (iteration == 0) {
-      // All points, before any trimming decides which to trust.
-      result.initial_rms_mm = rms;
-    }
+    if (iteration == 0) result.initial_rms_mm = rms;
     const bool warmup_step = coarse;
     const bool plane_step = options.method == IcpMethod::PointToPlane && c.size() >= 6 && !coarse;
     const Eigen::Isometry3d delta = plane_step ? solvePointToPlane(c) : solvePointToPoint(c);
@@ -352,6 +378,7 @@ IcpResult registerSurface(std::span<const Eigen::Vector3d> moving, const IcpSurf
     const double step_rotation = rotationAngle(delta.linear());
     const double step_shift = (delta * centre_before - centre_before).norm();
     const double motion = step_shift + step_rotation * radius;
+    const Eigen::Isometry3d T_before = T;
     T = delta * T;
     result.iterations = iteration + 1;
     // Far from the solution, point-to-plane steps can slide into a wrong
@@ -368,28 +395,39 @@ IcpResult registerSurface(std::span<const Eigen::Vector3d> moving, const IcpSurf
     const bool small_motion = motion < options.motion_tolerance_mm;
     const bool flat_rms = std::abs(previous_rms - rms) <= options.relative_rms_tolerance * std::max(rms, 1e-12);
 
+    const double rms_before = previous_rms;
     previous_rms = rms;
     // Convergence counts only for steps of the requested method, on all
-    // points. The coarse level hands over sooner: its optimum is within the
+    // points. A coarse level hands over sooner: its optimum is within the
     // noise of all points' anyway, which the following steps reach.
     if (coarse_level && !warmup_step &&
         (motion < 100.0 * options.motion_tolerance_mm ||
-         std::abs(previous_rms - rms) <= 1e3 * options.relative_rms_tolerance * std::max(rms, 1e-12))) {
-      coarse_level = false;
+         std::abs(rms_before - rms) <= 1e3 * options.relative_rms_tolerance * std::max(rms, 1e-12))) {
+      ++level;
       previous_rms = std::numeric_limits<double>::infinity();  // another set of points
       continue;
     }
     if ((small_motion || flat_rms) && !warmup_step && !coarse_level) {
       result.converged = true;
+      if (small_motion) {
+        // This step moves no point by more than the tolerance: stop at the
+        // transform whose correspondences are at hand (exact figures
+        // without another search, at most motion_tolerance_mm from the
+        // stepped one).
+        T = T_before;
+        last_all = std::move(c);
+        figures_ready = true;
+      }
       break;
     }
-    if (iteration == 0 && use_coarse) coarse_level = true;
   }
   if (options.max_iterations == 0) result.converged = true;
   result.fixed_T_moving = T;
 
-  // Figures at the result: the last correspondences with the final transform.
-  const auto c = correspond(moving, fixed, T, options, previous, found, order, all_by_index);
+  // Figures at the result: the correspondences of all points at it.
+  const auto c = figures_ready ? std::move(last_all)
+                               : correspond(moving, fixed, T, options, previous, found, levels.back().order,
+                                            levels.back().by_index);
   result.inliers.reserve(c.size());
   double sum = 0.0;
   for (const auto& x : c) {

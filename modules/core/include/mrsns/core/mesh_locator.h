@@ -56,6 +56,8 @@ class MeshLocator {
   explicit MeshLocator(const TriangleMesh& mesh, const MeshLocatorOptions& options = {});
 
   [[nodiscard]] Eigen::Index faceCount() const { return faces_.rows(); }
+  /// Unit normal of each face (zero for a zero-area face), in the mesh's face order.
+  [[nodiscard]] const PointsN3& faceNormals() const { return face_normals_; }
   /// True when the mesh is closed and consistently oriented (signed distance is defined).
   [[nodiscard]] bool closed() const { return topology().closed; }
 

@@ -26,7 +26,9 @@ namespace mrsns::registration {
 
 enum class IcpMethod {
   PointToPoint,  ///< minimises sum |R p + t - q|^2 (closed form, slow near convergence)
-  PointToPlane,  ///< minimises sum (n . (R p + t - q))^2 (linearised; few iterations on smooth surfaces)
+  /// minimises sum (n . (R p + t - q))^2 (linearised; few iterations on smooth surfaces), n the gradient of
+  /// the distance to the surface: the face's normal, or the direction to q when q is on an edge or corner
+  PointToPlane,
 };
 
 enum class RobustLoss { None, Huber, Tukey };
@@ -58,16 +60,19 @@ struct IcpOptions {
   /// noise floor is skipped). 0 keeps only the ratio test.
   double warmup_rotation_rad = 2.0 * 3.14159265358979323846 / 180.0;
   /// Converged when one iteration moves every point by less than this (mm),
-  /// estimated over the points' bounding radius.
+  /// estimated over the points' bounding radius; the result is then the
+  /// transform that step started from (its figures are already at hand).
   double motion_tolerance_mm = 1e-4;
   /// ... or when the weighted RMS changes by less than this fraction.
   double relative_rms_tolerance = 1e-7;
   /// Threads for the closest-point queries (0 = the hardware's); the result
   /// does not depend on it.
   unsigned threads = 0;
-  /// With 4000 points or more, iterate on every fourth point (in space)
-  /// after the first pass until converged, then on all points until
-  /// converged again: the result is all points' fixed point either way.
+  /// With 4000 points or more, iterate on a subset spread like all points
+  /// (every 4th in space; every 16th first from 16,000 points, every 64th
+  /// from 64,000: at least 1000 points each) until converged, then on the
+  /// next larger subset, and last on all points until converged again: the
+  /// result is all points' fixed point either way.
   bool coarse_to_fine = true;
 };
 
@@ -77,7 +82,9 @@ struct IcpResult {
   /// RMS distance of the inliers to the surface at the result (mm).
   double rms_mm = 0.0;
   /// Weighted RMS distance of the first iteration's correspondences (after
-  /// rejection, trimming and weighting) at the start (mm).
+  /// rejection, trimming and weighting) at the start (mm); with
+  /// coarse_to_fine on 4000 points or more, over the subset of the points
+  /// the first iteration uses.
   double initial_rms_mm = 0.0;
   /// inliers.size() / number of points.
   double inlier_fraction = 0.0;
@@ -97,7 +104,7 @@ class IcpSurface {
  public:
   explicit IcpSurface(const TriangleMesh& mesh);
   [[nodiscard]] const MeshLocator& locator() const { return *locator_; }
-  [[nodiscard]] const PointsN3& faceNormals() const { return face_normals_; }
+  [[nodiscard]] const PointsN3& faceNormals() const { return locator_->faceNormals(); }
   /// Area-weighted centroid and covariance of the surface (uniform density
   /// over the triangles, so independent of the tessellation).
   [[nodiscard]] const Eigen::Vector3d& surfaceCentroid() const { return centroid_; }
@@ -105,7 +112,6 @@ class IcpSurface {
 
  private:
   std::shared_ptr<const MeshLocator> locator_;
-  PointsN3 face_normals_;
   Eigen::Vector3d centroid_ = Eigen::Vector3d::Zero();
   Eigen::Matrix3d covariance_ = Eigen::Matrix3d::Zero();
 };
