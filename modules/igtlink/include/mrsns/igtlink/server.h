@@ -95,7 +95,8 @@ class Server {
 
 /// A TCP port free on `address` now, for a server a peer must be told about before it starts (a headset that
 /// connects to the workstation): picked at random below the system's ephemeral range, so neither a server
-/// bound to port 0 nor a client's own end is given it meanwhile (another program may still take it). Throws
+/// bound to port 0 nor a client's own end is given it meanwhile (another program may still take it), and never
+/// twice in one process (several rooms started at once would race for it). Throws
 /// NetworkError when none of 200 tries can be bound.
 std::uint16_t freeLocalPort(const std::string& address = "127.0.0.1");
 
