@@ -346,13 +346,9 @@ IcpResult registerSurface(std::span<const Eigen::Vector3d> moving, const IcpSurf
       levels.insert(levels.begin(), std::move(level));
     }
   }
-  {
-    Level all;
-    all.order = order;
-    all.by_index.resize(moving.size());
-    std::iota(all.by_index.begin(), all.by_index.end(), 0U);
-    levels.push_back(std::move(all));
-  }
+  levels.push_back({order, {}});
+  levels.back().by_index.resize(moving.size());
+  std::iota(levels.back().by_index.begin(), levels.back().by_index.end(), 0U);
   std::size_t level = 0;
   // The correspondences of all points from the last iteration, when it
   // converged by a step too small to matter: the result is then that
@@ -393,16 +389,14 @@ IcpResult registerSurface(std::span<const Eigen::Vector3d> moving, const IcpSurf
       coarse = false;
     }
     const bool small_motion = motion < options.motion_tolerance_mm;
-    const bool flat_rms = std::abs(previous_rms - rms) <= options.relative_rms_tolerance * std::max(rms, 1e-12);
-
-    const double rms_before = previous_rms;
+    const double rms_change = std::abs(previous_rms - rms) / std::max(rms, 1e-12);
+    const bool flat_rms = rms_change <= options.relative_rms_tolerance;
     previous_rms = rms;
     // Convergence counts only for steps of the requested method, on all
     // points. A coarse level hands over sooner: its optimum is within the
     // noise of all points' anyway, which the following steps reach.
     if (coarse_level && !warmup_step &&
-        (motion < 100.0 * options.motion_tolerance_mm ||
-         std::abs(rms_before - rms) <= 1e3 * options.relative_rms_tolerance * std::max(rms, 1e-12))) {
+        (motion < 100.0 * options.motion_tolerance_mm || rms_change <= 1e3 * options.relative_rms_tolerance)) {
       ++level;
       previous_rms = std::numeric_limits<double>::infinity();  // another set of points
       continue;
