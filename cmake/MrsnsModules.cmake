@@ -59,8 +59,13 @@ endfunction()
 # (core/data_dir.h: MRSNS_DATA_DIR from the environment, else the cache
 # variable compiled in) and the build tree through MRSNS_TEST_BINARY_DIR
 # (tests/support).
+#
+# SERIAL takes a gtest filter of load tests (e.g. "StreamRobustness.*"): they
+# run with CTest's RUN_SERIAL, alone on the machine. They put a 2-core machine
+# under a load of their own and bound what a good client sees; another test
+# running beside them would measure the CI machine instead of the server.
 function(mrsns_add_test module)
-  cmake_parse_arguments(ARG "" "" "LIBS" ${ARGN})
+  cmake_parse_arguments(ARG "" "SERIAL" "LIBS" ${ARGN})
   file(GLOB _sources CONFIGURE_DEPENDS "${CMAKE_CURRENT_SOURCE_DIR}/*.cpp")
   set(_exe mrsns_${module}_tests)
   if(NOT _sources)
@@ -73,11 +78,26 @@ function(mrsns_add_test module)
   mrsns_test_flags(${_exe})
   # Listing a program's tests is its first run: on a cold cache it loads VTK/ITK/Qt, which took over CMake's 5 s
   # default once in a CI run (the whole ctest run then failed), so allow a minute.
-  gtest_discover_tests(${_exe}
-    TEST_PREFIX "${module}."
-    DISCOVERY_MODE PRE_TEST
-    DISCOVERY_TIMEOUT 60
-    PROPERTIES LABELS ${module})
+  if(ARG_SERIAL)
+    gtest_discover_tests(${_exe}
+      TEST_PREFIX "${module}."
+      TEST_FILTER "-${ARG_SERIAL}"
+      DISCOVERY_MODE PRE_TEST
+      DISCOVERY_TIMEOUT 60
+      PROPERTIES LABELS ${module})
+    gtest_discover_tests(${_exe}
+      TEST_PREFIX "${module}."
+      TEST_FILTER "${ARG_SERIAL}"
+      DISCOVERY_MODE PRE_TEST
+      DISCOVERY_TIMEOUT 60
+      PROPERTIES LABELS ${module} RUN_SERIAL TRUE)
+  else()
+    gtest_discover_tests(${_exe}
+      TEST_PREFIX "${module}."
+      DISCOVERY_MODE PRE_TEST
+      DISCOVERY_TIMEOUT 60
+      PROPERTIES LABELS ${module})
+  endif()
 endfunction()
 
 # Collects the link closure of a target (names of every library it pulls in).

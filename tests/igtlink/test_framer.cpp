@@ -66,6 +66,29 @@ TEST(Framer, BodySizeBeyondLimitIsRejectedFromTheHeaderAlone) {
   EXPECT_TRUE(framer.next());
 }
 
+TEST(Framer, ABodyLimitByHeaderLowersTheLimitForSomeMessagesOnly) {
+  DecodeOptions options;
+  options.max_body_size = 1000;  // the ceiling, whatever the limit by header says
+  MessageFramer framer(options);
+  framer.setBodyLimit([](const Header& h) -> std::uint64_t { return h.device_name == "Photo" ? 5000 : 20; });
+  auto message = [](const std::string& device, std::size_t length) {
+    return encodeMessage(makeMessage(device, StringContent{kEncodingUsAscii, std::string(length, 'x')}));
+  };
+  framer.push(message("Photo", 500));  // 504-byte body: under the ceiling, from the device allowed more
+  framer.push(message("Confirm", 16));  // 20 bytes: at the limit
+  EXPECT_EQ(framer.next()->header.device_name, "Photo");
+  EXPECT_EQ(framer.next()->header.device_name, "Confirm");
+  EXPECT_THROW(framer.push(message("Confirm", 17)), FormatError);
+  EXPECT_TRUE(framer.failed());
+  framer.reset();
+  try {
+    framer.push(message("Photo", 997));  // 1001 bytes: the ceiling holds for the large device too
+    FAIL() << "a body over the ceiling was accepted";
+  } catch (const FormatError& e) {
+    EXPECT_NE(std::string(e.what()).find("over the limit of 1000"), std::string::npos) << e.what();
+  }
+}
+
 TEST(Framer, BadCrcLosesOnlyThatMessage) {
   auto bytes = stream(3);
   const std::size_t first = kHeaderSize + 4;  // message 0: empty STRING

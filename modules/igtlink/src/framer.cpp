@@ -1,5 +1,7 @@
 #include "mrsns/igtlink/framer.h"
 
+#include <algorithm>
+
 #include "mrsns/core/error.h"
 #include "mrsns/igtlink/crc64.h"
 
@@ -21,10 +23,11 @@ void MessageFramer::checkPendingHeader() {
   if (pending_ || bufferedBytes() < kHeaderSize) return;
   try {
     Header h = decodeHeader(std::span<const std::uint8_t>(buffer_).subspan(start_, kHeaderSize));
-    if (h.body_size > options_.max_body_size) {
+    const std::uint64_t limit =
+        body_limit_ ? std::min(options_.max_body_size, body_limit_(h)) : options_.max_body_size;
+    if (h.body_size > limit) {
       throw FormatError("OpenIGTLink header (" + h.type + " from '" + h.device_name + "'): field 'body_size' is " +
-                        std::to_string(h.body_size) + " bytes, over the limit of " +
-                        std::to_string(options_.max_body_size));
+                        std::to_string(h.body_size) + " bytes, over the limit of " + std::to_string(limit));
     }
     pending_ = std::move(h);
   } catch (const FormatError&) {

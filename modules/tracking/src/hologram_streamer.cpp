@@ -72,6 +72,13 @@ HologramStreamer::HologramStreamer(igtlink::Server& server, std::shared_ptr<Tran
   server_.onConnect([this](igtlink::ClientId c) { onConnect(c); });
   server_.onDisconnect([this](igtlink::ClientId c) { onDisconnect(c); });
   server_.onMessage([this](igtlink::ClientId c, const igtlink::Message& m) { onClientMessage(c, m); });
+  igtlink::InboundLimits limits;
+  limits.max_body_size = [photos = static_cast<bool>(options_.on_camera_image)](const igtlink::Header& header) {
+    return photos && header.type == "IMAGE" && header.device_name == kCameraImageDevice ? kMaxCameraImageBodyBytes
+                                                                                        : kMaxClientMessageBodyBytes;
+  };
+  limits.max_messages_per_s = kMaxClientMessagesPerSecond;
+  server_.limitInbound(std::move(limits));
 }
 
 HologramStreamer::~HologramStreamer() = default;

@@ -373,8 +373,7 @@ StepResult runHmdCameraCalibration(Session& session, const Json& params, const S
                                  "max_still_deg > 0, hmd_wait_s in (0, 1800] s, photo_wait_s 1-600 s");
     }
     // The largest photo the stream takes (4096 x 4096 grey) and its header; nothing else a headset sends is large.
-    const StepStreamAddress address = stepStreamAddress(
-        kCameraStep, p, static_cast<std::uint64_t>(tracking::kMaxCameraImageSide) * tracking::kMaxCameraImageSide + 64 * 1024);
+    const StepStreamAddress address = stepStreamAddress(kCameraStep, p, tracking::kMaxCameraImageBodyBytes);
     s.endpoint = address.endpoint;
     std::string recording;
     LiveTrackingOptions live = touchRecordingOptions(session, p, kCameraStep, "CameraViews", 600.0, recording);

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <deque>
 #include <map>
 #include <mutex>
@@ -36,15 +37,24 @@ struct Server::Impl : std::enable_shared_from_this<Server::Impl> {
           socket(std::move(s)),
           timer(socket.get_executor()),
           id(client_id),
-          framer(owner.options.decode) {}
+          pause_timer(socket.get_executor()),
+          framer(owner.options.decode),
+          tokens(owner.inbound.max_messages_per_s) {
+      framer.setBodyLimit(owner.inbound.max_body_size);
+    }
 
     Impl& server;
     asio::ip::tcp::socket socket;
     asio::steady_timer timer;
     ClientId id;
+    asio::steady_timer pause_timer;  // resumes reading a client that sent too many messages
     MessageFramer framer;
     std::array<std::uint8_t, 65536> read_buffer{};
     Clock::time_point last_progress = Clock::now();
+    // Token bucket of InboundLimits::max_messages_per_s (I/O thread only).
+    double tokens;
+    Clock::time_point tokens_at = Clock::now();
+    bool paused = false;
 
     std::mutex queue_mutex;  // guards the fields below (producers on other threads)
     std::deque<QueuedMessage> queue;
@@ -66,7 +76,33 @@ struct Server::Impl : std::enable_shared_from_this<Server::Impl> {
           return;
         }
         self->consume(n);
-        if (!self->isClosed()) self->read();
+        if (!self->isClosed()) self->readWhenAllowed();
+      });
+    }
+
+    // Reads on at once, or after the pause that brings a client that sent too
+    // many messages back to its rate.
+    void readWhenAllowed() {
+      const double rate = server.inbound.max_messages_per_s;
+      if (rate <= 0.0) {
+        read();
+        return;
+      }
+      const auto now = Clock::now();
+      tokens = std::min(rate, tokens + rate * std::chrono::duration<double>(now - tokens_at).count());
+      tokens_at = now;
+      if (tokens >= 0.0) {
+        read();
+        return;
+      }
+      server.pauses.fetch_add(1);
+      paused = true;
+      pause_timer.expires_after(std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(-tokens / rate)));
+      pause_timer.async_wait([self = shared_from_this()](const asio::error_code& ec) {
+        self->paused = false;
+        if (ec || self->isClosed()) return;
+        self->last_progress = Clock::now();  // the pause is ours, not a stalled client
+        self->readWhenAllowed();
       });
     }
 
@@ -93,6 +129,7 @@ struct Server::Impl : std::enable_shared_from_this<Server::Impl> {
         }
         if (!message) break;
         last_progress = Clock::now();
+        tokens -= 1.0;
         server.received.fetch_add(1);
         if (server.on_message) server.on_message(id, *message);
       }
@@ -113,7 +150,8 @@ struct Server::Impl : std::enable_shared_from_this<Server::Impl> {
       timer.async_wait([self](const asio::error_code& ec) {
         if (ec || self->isClosed()) return;
         const double stalled = std::chrono::duration<double>(Clock::now() - self->last_progress).count();
-        if (self->framer.bufferedBytes() > 0 && stalled > self->server.options.incomplete_message_timeout_s) {
+        if (!self->paused && self->framer.bufferedBytes() > 0 &&
+            stalled > self->server.options.incomplete_message_timeout_s) {
           self->protocolError("message incomplete for " + std::to_string(stalled) + " s");
           return;
         }
@@ -208,6 +246,7 @@ struct Server::Impl : std::enable_shared_from_this<Server::Impl> {
       socket.shutdown(asio::ip::tcp::socket::shutdown_both, ignored);
       socket.close(ignored);
       timer.cancel();
+      pause_timer.cancel();
       server.removeSession(id);
     }
   };
@@ -215,6 +254,7 @@ struct Server::Impl : std::enable_shared_from_this<Server::Impl> {
   explicit Impl(ServerOptions o) : options(std::move(o)), acceptor(io), accept_retry(io) {}
 
   ServerOptions options;
+  InboundLimits inbound;
   asio::io_context io;
   asio::ip::tcp::acceptor acceptor;
   asio::steady_timer accept_retry;  // back-off after a failed accept (e.g. out of file descriptors)
@@ -231,7 +271,7 @@ struct Server::Impl : std::enable_shared_from_this<Server::Impl> {
   ClientId next_id = 1;
 
   std::atomic<std::uint64_t> accepted{0}, refused{0}, sent{0}, dropped{0}, received{0}, malformed{0},
-      protocol_closed{0}, slow_closed{0};
+      protocol_closed{0}, slow_closed{0}, pauses{0};
 
   void accept() {
     acceptor.async_accept([self = shared_from_this()](const asio::error_code& ec, asio::ip::tcp::socket socket) {
@@ -304,6 +344,12 @@ void Server::onDisconnect(ConnectHandler handler) {
 }
 void Server::onMessage(MessageHandler handler) {
   impl_->on_message = std::move(handler);
+}
+void Server::limitInbound(InboundLimits limits) {
+  if (limits.max_messages_per_s < 0.0 || !std::isfinite(limits.max_messages_per_s)) {
+    throw InvalidArgumentError("OpenIGTLink server: max_messages_per_s must be 0 (unlimited) or positive");
+  }
+  impl_->inbound = std::move(limits);
 }
 
 void Server::start() {
@@ -395,6 +441,7 @@ ServerStats Server::stats() const {
   s.malformed_messages = impl_->malformed;
   s.clients_closed_for_protocol_errors = impl_->protocol_closed;
   s.clients_closed_as_too_slow = impl_->slow_closed;
+  s.inbound_pauses = impl_->pauses;
   return s;
 }
 

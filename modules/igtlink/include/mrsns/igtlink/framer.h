@@ -1,6 +1,7 @@
 #pragma once
 // Splits a byte stream (TCP chunks of any size) into OpenIGTLink messages.
 #include <cstdint>
+#include <functional>
 #include <optional>
 #include <span>
 #include <vector>
@@ -15,10 +16,14 @@ struct Frame {
   std::vector<std::uint8_t> body;
 };
 
+/// The largest body accepted for a message, decided from its header.
+using BodyLimit = std::function<std::uint64_t(const Header&)>;
+
 /// Accepts chunks with push() and yields complete messages with next().
 ///
-/// The header's body_size is checked against options.max_body_size as soon as
-/// the 58 header bytes have arrived, before any body storage is reserved; a bad
+/// The header's body_size is checked against options.max_body_size (and the
+/// BodyLimit, when one is set) as soon as the 58 header bytes have arrived,
+/// before any body storage is reserved; a bad
 /// header (unknown version, body too large) leaves the stream unusable: the
 /// framer then throws on every call until reset(). A bad body (CRC, malformed
 /// content) only loses that message: next() throws once and the following
@@ -26,6 +31,10 @@ struct Frame {
 class MessageFramer {
  public:
   explicit MessageFramer(DecodeOptions options = {}) : options_(options) {}
+
+  /// A limit per message below options.max_body_size (e.g. a server that only
+  /// accepts large bodies of one type from one device). Empty: none.
+  void setBodyLimit(BodyLimit limit) { body_limit_ = std::move(limit); }
 
   /// Appends bytes. Throws FormatError when a header in the stream is invalid.
   void push(std::span<const std::uint8_t> chunk);
@@ -46,6 +55,7 @@ class MessageFramer {
   void checkPendingHeader();
 
   DecodeOptions options_;
+  BodyLimit body_limit_;
   std::vector<std::uint8_t> buffer_;
   std::size_t start_ = 0;
   std::optional<Header> pending_;

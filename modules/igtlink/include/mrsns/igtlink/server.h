@@ -11,7 +11,9 @@
 // Incoming messages are decoded with the size limits of DecodeOptions; a
 // message with a bad body is counted and skipped, a stream that cannot be
 // framed any more (bad header, oversized body) or that stalls mid-message is
-// closed. Binds 127.0.0.1 unless told otherwise.
+// closed. A server that expects little from its clients (the hologram stream
+// only sends) limits each message's size by its header and each client's
+// message rate (limitInbound). Binds 127.0.0.1 unless told otherwise.
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -19,6 +21,7 @@
 #include <vector>
 
 #include "mrsns/igtlink/codec.h"
+#include "mrsns/igtlink/framer.h"
 #include "mrsns/igtlink/message.h"
 
 namespace mrsns::igtlink {
@@ -41,6 +44,19 @@ struct ServerOptions {
   DecodeOptions decode;
 };
 
+/// What a client may send (Server::limitInbound).
+struct InboundLimits {
+  /// The largest body of a message, decided from its header before any of the
+  /// body is stored; a client whose header asks for more is disconnected.
+  /// Empty: ServerOptions::decode.max_body_size for every message (always the
+  /// ceiling).
+  BodyLimit max_body_size;
+  /// Messages a client may send per second on average, and at once. A client
+  /// over it is not read until it is back under: TCP holds its data on its
+  /// side, so a flood costs the server neither memory nor time. 0: unlimited.
+  double max_messages_per_s = 0.0;
+};
+
 struct ServerStats {
   std::size_t clients = 0;
   std::uint64_t connections_accepted = 0;
@@ -51,6 +67,8 @@ struct ServerStats {
   std::uint64_t malformed_messages = 0;
   std::uint64_t clients_closed_for_protocol_errors = 0;
   std::uint64_t clients_closed_as_too_slow = 0;
+  /// Times a client's reading was paused for sending too many messages.
+  std::uint64_t inbound_pauses = 0;
 };
 
 class Server {
@@ -67,6 +85,8 @@ class Server {
   void onConnect(ConnectHandler handler);
   void onDisconnect(ConnectHandler handler);
   void onMessage(MessageHandler handler);
+  /// Limits what each client may send; set before start().
+  void limitInbound(InboundLimits limits);
 
   /// Binds and starts accepting. Throws NetworkError (address in use,
   /// unknown address) with what to do.

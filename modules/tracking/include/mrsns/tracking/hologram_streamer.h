@@ -30,6 +30,15 @@
 //    decode.max_body_size must let it through), with its v2 metadata
 //    "CameraIntrinsics" when the headset sent them.
 // Everything else is counted, logged (rate-limited) and ignored.
+//
+// The stream is send-only, so the streamer limits what its server reads
+// (igtlink::Server::limitInbound): a message body of at most
+// kMaxClientMessageBodyBytes (a confirmation, a STATUS, a GET_ request or a
+// client's own TRANSFORM with its v2 metadata fit many times over), the
+// camera's IMAGE excepted when photos are asked for; a client whose header
+// asks for more is disconnected before any of its body is stored. A client
+// sending more than kMaxClientMessagesPerSecond is not read until it is back
+// under that rate (TCP holds the flood on its side).
 #include <chrono>
 #include <functional>
 #include <limits>
@@ -55,6 +64,11 @@ struct HologramModel {
   std::string frame;
 };
 
+/// The largest body of a client message other than a camera photo.
+inline constexpr std::uint64_t kMaxClientMessageBodyBytes = 4096;
+/// Client messages read per second on average (and at once): a headset that
+/// sends its own pose or its screws back at 60 Hz each stays far below.
+inline constexpr double kMaxClientMessagesPerSecond = 1000.0;
 /// The longest confirmation text accepted from a client.
 inline constexpr std::size_t kMaxConfirmationBytes = 256;
 /// The device name of the headset camera's photos.
@@ -63,6 +77,10 @@ inline constexpr int kMinCameraImageSide = 16;
 inline constexpr int kMaxCameraImageSide = 4096;
 /// The longest "CameraIntrinsics" metadata value kept.
 inline constexpr std::size_t kMaxCameraIntrinsicsBytes = 1024;
+/// The largest camera photo's body: the IMAGE header, the largest 8-bit
+/// slice and room for the v2 extended header and metadata.
+inline constexpr std::uint64_t kMaxCameraImageBodyBytes =
+    std::uint64_t{kMaxCameraImageSide} * kMaxCameraImageSide + 64 * 1024;
 
 /// A photo from the headset's camera, as a client sent it.
 struct HeadsetCameraImage {
@@ -106,8 +124,9 @@ struct HologramStreamStats {
 
 class HologramStreamer {
  public:
-  /// Installs the server's connect/disconnect/message handlers: construct it
-  /// before server.start(). Encodes every mesh once. Throws
+  /// Installs the server's connect/disconnect/message handlers and its
+  /// inbound limits: construct it before server.start(). Encodes every mesh
+  /// once. Throws
   /// InvalidArgumentError for an empty or too long or repeated device name, an
   /// empty mesh or frame name, or a forward transform that is not "AToB".
   HologramStreamer(igtlink::Server& server, std::shared_ptr<TransformRepository> repository,
