@@ -69,7 +69,8 @@ TEST(CliServe, HelpDocumentsEveryOption) {
   ASSERT_EQ(r.exit_code, 0) << r.err;
   for (const char* option : {"--port", "--bind", "--source", "--sequence", "--plus-host", "--plus-port", "--models",
                              "--unity", "--igtl-version", "--rate", "--duration", "--loop", "--speed", "--json",
-                             "--forward-tools", "--wait-for-client", "--model-frame", "--hologram-frame", "--seed"}) {
+                             "--forward-tools", "--wait-for-client", "--model-frame", "--hologram-frame", "--seed",
+                             "--client", "openigtlink-unity", "hololens2-pedicle", "slicer", "unity-metres"}) {
     EXPECT_NE(r.out.find(option), std::string::npos) << option;
   }
   EXPECT_NE(r.out.find("18944"), std::string::npos);
@@ -86,6 +87,7 @@ TEST(CliServe, BadConfigurationGivesOneClearLineAndExitOne) {
       {{"serve", "--source", "playback"}, "needs --sequence"},
       {{"serve", "--source", "playback", "--sequence", "/no/such/file.igs.mha"}, "does not exist"},
       {{"serve", "--igtl-version", "3"}, "--igtl-version must be 1 or 2"},
+      {{"serve", "--client", "hololens"}, "unknown headset client 'hololens'; known clients: slicer,"},
       {{"serve", "--models", "/no/such/model.stl"}, "does not exist"},
       {{"serve", "--source", "plus", "--port", "18950", "--plus-port", "18950"}, "own --port"},
   };
@@ -99,6 +101,37 @@ TEST(CliServe, BadConfigurationGivesOneClearLineAndExitOne) {
   EXPECT_EQ(usage.exit_code, 2);
   const auto not_a_number = runCli({"serve", "--port", "abc"});
   EXPECT_EQ(not_a_number.exit_code, 2);
+  const auto both = runCli({"serve", "--unity", "--client", "slicer"});  // --unity is one of the clients
+  EXPECT_EQ(both.exit_code, 2);
+}
+
+TEST(CliServe, OpenIgtLinkUnityClientGetsHeaderV1TransformsInMillimetresOnly) {
+  const auto dir = scratchDirectory("serve_client");
+  io::writeMesh(tetrahedron(), dir / "C5.stl");
+  const auto port = freePort();
+  ServeProcess serve({"--port", std::to_string(port), "--source", "simulator", "--rate", "200", "--models",
+                      (dir / "C5.stl").string(), "--client", "openigtlink-unity", "--json"});
+  ASSERT_TRUE(serve.started());
+  {
+    Collector collector(port);
+    ASSERT_TRUE(waitUntil([&] { return collector.count("TRANSFORM") >= 20; }, 10.0));
+    std::lock_guard lock(collector.mutex);
+    for (const auto& m : collector.messages) {
+      ASSERT_EQ(m.header.type, "TRANSFORM");  // no POLYDATA, STATUS or STRING: its reader stops at them
+      EXPECT_EQ(m.header.version, 1);
+      EXPECT_EQ(m.header.device_name, "C5");  // the GameObject it moves
+      // Millimetres and right-handed: the client scales and mirrors x itself.
+      EXPECT_NEAR(m.as<igtlink::TransformContent>()->matrix(2, 3), -1000.0, 10.0);
+    }
+  }
+  serve.terminate();
+  const auto r = serve.wait();
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto json = nlohmann::json::parse(r.out);
+  EXPECT_EQ(json["client"], "openigtlink-unity");
+  EXPECT_EQ(json["igtl_version"], 1);
+  EXPECT_EQ(json["unity"], false);
+  EXPECT_EQ(json["meshes_queued"].get<int>(), 0);
 }
 
 TEST(CliServe, PortInUseIsAClearError) {

@@ -5,13 +5,16 @@
 #include <gtest/gtest.h>
 
 #include <QCheckBox>
+#include <QComboBox>
 #include <QDockWidget>
 #include <QLabel>
 #include <QProcess>
 #include <QProgressBar>
 #include <QPushButton>
 #include <QSignalSpy>
+#include <QSpinBox>
 #include <QTreeWidget>
+#include <atomic>
 #include <cmath>
 #include <fstream>
 #include <iostream>
@@ -24,12 +27,15 @@
 #include "main_window.h"
 #include "message_presenter.h"
 #include "mrsns/core/error.h"
+#include "mrsns/igtlink/client.h"
+#include "mrsns/igtlink/server.h"
 #include "mrsns/io/image_io.h"
 #include "mrsns/io/mesh_io.h"
 #include "mrsns/io/pose_csv.h"
 #include "mrsns/rendering/scene.h"
 #include "mrsns/rendering/slice_views.h"
 #include "mrsns/rendering/tool_models.h"
+#include "mrsns/tracking/hologram_client_preset.h"
 #include "mrsns/workflow/session.h"
 #include "mrsns/workflow/steps.h"
 #include "output_panel.h"
@@ -418,6 +424,36 @@ TEST_F(MainWindowTest, HologramStreamServesTheSessionModelsOnLocalhost) {
   EXPECT_TRUE(toggle->isChecked());
   window->stopHologramStream();
   EXPECT_FALSE(toggle->isChecked());
+
+  // The headset client is chosen in the panel: every preset is offered, and the stream is sent in its form
+  // (OpenIGTLink-Unity reads no POLYDATA, so none comes; Slicer's gets the model first).
+  auto* client = window->findChild<QComboBox*>("hologramClient");
+  auto* port = window->findChild<QSpinBox*>("hologramPort");
+  auto* status = window->findChild<QLabel*>("hologramStatus");
+  ASSERT_NE(client, nullptr);
+  ASSERT_NE(port, nullptr);
+  ASSERT_NE(status, nullptr);
+  ASSERT_EQ(client->count(), static_cast<int>(mrsns::tracking::hologramClientPresets().size()));
+  for (const auto* name : {"slicer", "openigtlink-unity"}) {
+    client->setCurrentText(QString::fromLatin1(name));
+    port->setValue(mrsns::igtlink::freeLocalPort());
+    QTest::mouseClick(toggle, Qt::LeftButton);
+    ASSERT_TRUE(window->hologramStreaming()) << messages();
+    EXPECT_FALSE(client->isEnabled());  // fixed while serving
+    EXPECT_TRUE(status->text().contains(QString::fromLatin1(name))) << status->text().toStdString();
+    mrsns::igtlink::ClientOptions options;
+    options.port = static_cast<std::uint16_t>(port->value());
+    mrsns::igtlink::Client headset(options);
+    std::atomic<int> meshes{0};
+    headset.onMessage([&](const mrsns::igtlink::Message& m) { meshes += m.header.type == "POLYDATA" ? 1 : 0; });
+    headset.start();
+    mrsns::test::waitUntil([&] { return meshes.load() > 0; }, std::string(name) == "slicer" ? 5000 : 500);
+    EXPECT_EQ(meshes.load(), std::string(name) == "slicer" ? 1 : 0) << name;
+    headset.stop();
+    QTest::mouseClick(toggle, Qt::LeftButton);
+    EXPECT_FALSE(window->hologramStreaming());
+    EXPECT_TRUE(client->isEnabled());
+  }
 }
 
 TEST_F(MainWindowTest, ExecutableWritesAScreenshotAndLogsItsStartupTime) {

@@ -28,19 +28,6 @@ namespace {
 
 using test::waitFor;
 
-int connectToLoopback(std::uint16_t port) {
-  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
-  sockaddr_in address{};
-  address.sin_family = AF_INET;
-  address.sin_port = htons(port);
-  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  if (::connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof(address)) != 0) {
-    ::close(fd);
-    return -1;
-  }
-  return fd;
-}
-
 enum class SendResult { kSent, kClosedByPeer, kStopped };
 
 // Sends `bytes` without blocking forever: a server that stops reading (a
@@ -78,7 +65,7 @@ double residentMegabytes() {
 // 1 MiB pieces until the server hangs up. Returns the bytes it got to send.
 std::uint64_t sendHugeMessage(std::uint16_t port, const std::string& type, const std::string& device,
                               std::uint64_t body_size, const std::atomic<bool>& stop) {
-  const int fd = connectToLoopback(port);
+  const int fd = test::connectRaw(port);
   if (fd < 0) return 0;
   igtlink::Header header;
   header.type = type;
@@ -150,7 +137,7 @@ TEST(StreamInboundLimits, AMessageOverAFewKilobytesIsRefusedAtItsHeader) {
   header.device_name = "Big";
   header.body_size = kMaxClientMessageBodyBytes + 1;
   const auto over = igtlink::encodeHeader(header);
-  const int over_fd = connectToLoopback(stream.server->port());
+  const int over_fd = test::connectRaw(stream.server->port());
   ASSERT_GE(over_fd, 0);
   ASSERT_EQ(sendUntil(over_fd, over, never), SendResult::kSent);
   ASSERT_TRUE(waitFor([&] { return stream.server->stats().clients_closed_for_protocol_errors == 2; }));
@@ -163,7 +150,7 @@ TEST(StreamInboundLimits, AMessageOverAFewKilobytesIsRefusedAtItsHeader) {
   const auto at_limit_header = igtlink::encodeHeader(header);
   std::vector<std::uint8_t> at_limit(at_limit_header.begin(), at_limit_header.end());
   at_limit.insert(at_limit.end(), at_limit_body.begin(), at_limit_body.end());
-  const int ok_fd = connectToLoopback(stream.server->port());
+  const int ok_fd = test::connectRaw(stream.server->port());
   ASSERT_GE(ok_fd, 0);
   ASSERT_EQ(sendUntil(ok_fd, at_limit, never), SendResult::kSent);
   ASSERT_EQ(sendUntil(ok_fd, slicerStatus(), never), SendResult::kSent);
@@ -185,7 +172,7 @@ TEST(StreamInboundLimits, OnlyTheCameraPhotoMayBeLargeAndOnlyWhenPhotosAreAsked)
   options.on_camera_image = [](igtlink::ClientId, HeadsetCameraImage) {};
   OneModelStream photos(options);
   // A photo-sized IMAGE from the camera device is read: cut short, the stalled message is what closes it.
-  const int fd = connectToLoopback(photos.server->port());
+  const int fd = test::connectRaw(photos.server->port());
   ASSERT_GE(fd, 0);
   igtlink::Header header;
   header.type = "IMAGE";
@@ -250,7 +237,7 @@ TEST(StreamInboundLimits, FloodsAndHugeMessagesFromSeveralClientsLeaveTheGoodHea
   for (int t = 0; t < kFlooders; ++t) {
     attackers.emplace_back([&] {
       while (!stop.load()) {
-        const int fd = connectToLoopback(server.port());
+        const int fd = test::connectRaw(server.port());
         if (fd < 0) continue;
         while (sendUntil(fd, batch, stop) == SendResult::kSent) flood_sent += 1000;
         ::close(fd);

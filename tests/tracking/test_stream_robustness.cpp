@@ -24,19 +24,6 @@ namespace {
 
 using test::waitFor;
 
-int connectTo(std::uint16_t port) {
-  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
-  sockaddr_in address{};
-  address.sin_family = AF_INET;
-  address.sin_port = htons(port);
-  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  if (::connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof(address)) != 0) {
-    ::close(fd);
-    return -1;
-  }
-  return fd;
-}
-
 bool sendAll(int fd, const std::vector<std::uint8_t>& bytes, std::size_t offset = 0, std::size_t count = SIZE_MAX) {
   const std::size_t end = std::min(bytes.size(), count == SIZE_MAX ? bytes.size() : offset + count);
   while (offset < end) {
@@ -58,7 +45,7 @@ struct Attacker {
 
 void attack(Attacker& a, std::uint16_t port, std::mt19937& rng, const std::vector<std::uint8_t>& valid) {
   if (a.fd < 0) {
-    a.fd = connectTo(port);
+    a.fd = test::connectRaw(port);
     a.slow_offset = 0;
     if (a.fd < 0) return;
   }

@@ -1,7 +1,11 @@
 #pragma once
 // Shared fixtures of the tracking tests: a small closed mesh, a client that
 // records what it receives with receive times, float32 wire tolerances.
+#include <arpa/inet.h>
 #include <gtest/gtest.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
 
 #include <chrono>
 #include <cmath>
@@ -22,6 +26,21 @@ inline igtlink::ServerOptions loopback() {
   igtlink::ServerOptions options;
   options.port = 0;
   return options;
+}
+
+/// A raw TCP connection to 127.0.0.1:port (what a misbehaving or foreign
+/// client writes byte by byte); -1 when it cannot connect.
+inline int connectRaw(std::uint16_t port) {
+  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in address{};
+  address.sin_family = AF_INET;
+  address.sin_port = htons(port);
+  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  if (::connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof(address)) != 0) {
+    ::close(fd);
+    return -1;
+  }
+  return fd;
 }
 
 /// A closed tetrahedron (outward normals by right-hand winding), 10 mm edges.

@@ -13,6 +13,7 @@
 #include "cli_context.h"
 #include "mrsns/core/error.h"
 #include "mrsns/io/mesh_io.h"
+#include "mrsns/tracking/hologram_client_preset.h"
 #include "mrsns/tracking/hologram_streamer.h"
 #include "mrsns/tracking/igtl_source.h"
 #include "mrsns/tracking/playback_source.h"
@@ -32,8 +33,9 @@ struct ServeOptions {
   std::string model_frame = "Reference";
   std::string hologram_frame = "Tracker";
   bool forward_tools = false;
+  std::string client = "slicer";
   bool unity = false;
-  int igtl_version = 2;
+  int igtl_version = 0;  // 0: the client's
   double rate_hz = 60.0;
   double duration_s = 0.0;
   bool loop = false;
@@ -113,7 +115,7 @@ void validate(const ServeOptions& o) {
   }
   if (o.port < 0 || o.port > 65535) throw InvalidArgumentError("--port must be 0..65535");
   if (o.plus_port < 1 || o.plus_port > 65535) throw InvalidArgumentError("--plus-port must be 1..65535");
-  if (o.igtl_version != 1 && o.igtl_version != 2) throw InvalidArgumentError("--igtl-version must be 1 or 2");
+  if (o.igtl_version != 0 && o.igtl_version != 1 && o.igtl_version != 2) throw InvalidArgumentError("--igtl-version must be 1 or 2");
   if (o.source == "playback") {
     if (o.sequence.empty()) throw InvalidArgumentError("--source playback needs --sequence FILE (a PLUS .mha/.nrrd)");
     if (!std::filesystem::is_regular_file(o.sequence)) {
@@ -172,9 +174,12 @@ Report run(const ServeOptions& o) {
   igtlink::Server server(server_options);
   tracking::HologramStreamOptions stream_options;
   stream_options.hologram_frame = o.hologram_frame;
-  stream_options.unity = o.unity;
-  stream_options.version = o.igtl_version == 1 ? igtlink::HeaderVersion::kV1 : igtlink::HeaderVersion::kV2;
   if (o.forward_tools) stream_options.forward_transforms = source->toolNames();
+  const tracking::HologramClientPreset& preset = tracking::hologramClientPreset(o.unity ? "unity-metres" : o.client);
+  stream_options = tracking::withClientPreset(std::move(stream_options), preset);
+  if (o.igtl_version != 0) {
+    stream_options.version = o.igtl_version == 1 ? igtlink::HeaderVersion::kV1 : igtlink::HeaderVersion::kV2;
+  }
   tracking::HologramStreamer streamer(server, repository, models, stream_options);
   source->setUpdateCallback(
       [&streamer](std::span<const tracking::ToolUpdate> updates) { streamer.update(updates.front().timestamp); });
@@ -206,8 +211,9 @@ Report run(const ServeOptions& o) {
   report.json["source"] = source->name();
   report.json["port"] = server.port();
   report.json["bind"] = o.bind;
-  report.json["igtl_version"] = o.igtl_version;
-  report.json["unity"] = o.unity;
+  report.json["client"] = preset.name;
+  report.json["igtl_version"] = stream_options.version == igtlink::HeaderVersion::kV1 ? 1 : 2;
+  report.json["unity"] = stream_options.unity;
   report.json["models"] = Json::array();
   for (const auto& m : models) report.json["models"].push_back(m.name);
   report.json["duration_s"] = elapsed();
@@ -261,9 +267,17 @@ void registerServeVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs) {
   sub->add_flag("--forward-tools", o->forward_tools,
                 "also stream every tool transform of the source under its own name (e.g. ProbeToTracker; playback and "
                 "simulator only: PlusServer's tools are known only once they arrive)");
-  sub->add_flag("--unity", o->unity,
-                "Unity convention: left-handed axes (x flipped) and metres, for meshes and transforms alike");
-  sub->add_option("--igtl-version", o->igtl_version, "OpenIGTLink header version: 1 or 2")->capture_default_str();
+  std::string clients;
+  for (const auto& preset : tracking::hologramClientPresets()) clients += "\n  " + preset.name + ": " + preset.description;
+  auto* client = sub->add_option("--client", o->client,
+                                 "the headset client, which sets the header version, units, handedness and messages "
+                                 "it can read:" +
+                                     clients)
+                     ->capture_default_str();
+  sub->add_flag("--unity", o->unity, "the same as --client unity-metres (left-handed metres on the wire)")
+      ->excludes(client);
+  sub->add_option("--igtl-version", o->igtl_version,
+                  "OpenIGTLink header version 1 or 2 instead of the client's (a client may then read nothing)");
   sub->add_option("--rate", o->rate_hz, "simulator rate in Hz (playback and PlusServer stream at their own rate)")
       ->capture_default_str();
   sub->add_option("--duration", o->duration_s, "stop after this many seconds (0 = until Ctrl-C or SIGTERM)")

@@ -1,6 +1,7 @@
 #include "function_panel.h"
 
 #include <QCheckBox>
+#include <QComboBox>
 #include <QGridLayout>
 #include <QGroupBox>
 #include <QHBoxLayout>
@@ -9,6 +10,8 @@
 #include <QSpinBox>
 #include <QVBoxLayout>
 #include <QVariant>
+
+#include "mrsns/tracking/hologram_client_preset.h"
 
 namespace mrsns::gui {
 
@@ -64,11 +67,23 @@ FunctionPanel::FunctionPanel(QWidget* parent) : QWidget(parent) {
   stream_port_->setRange(1024, 65535);
   stream_port_->setValue(18945);
   stream_port_->setPrefix(tr("port "));
+  // The client decides the header version, units, handedness and messages it can read; a pose right in one is
+  // mirrored or scaled in another (tracking/hologram_client_preset.h).
+  stream_client_ = new QComboBox(mr);
+  stream_client_->setObjectName(QStringLiteral("hologramClient"));
+  stream_client_->setToolTip(tr("The headset client: the stream is sent in the form it reads"));
+  for (const auto& preset : tracking::hologramClientPresets()) {
+    stream_client_->addItem(QString::fromStdString(preset.name));
+    stream_client_->setItemData(stream_client_->count() - 1, QString::fromStdString(preset.description),
+                                Qt::ToolTipRole);
+  }
   stream_status_ = new QLabel(tr("off"), mr);
   stream_status_->setObjectName(QStringLiteral("hologramStatus"));
   mr_layout->addWidget(stream_button_, 0, 0);
   mr_layout->addWidget(stream_port_, 0, 1);
-  mr_layout->addWidget(stream_status_, 1, 0, 1, 2);
+  mr_layout->addWidget(new QLabel(tr("Client"), mr), 1, 0);
+  mr_layout->addWidget(stream_client_, 1, 1);
+  mr_layout->addWidget(stream_status_, 2, 0, 1, 2);
   connect(stream_button_, &QPushButton::toggled, this, &FunctionPanel::hologramStreamToggled);
   layout->addWidget(mr);
 
@@ -130,11 +145,16 @@ void FunctionPanel::setStreaming(bool on, const QString& detail) {
   const QSignalBlocker block(stream_button_);
   stream_button_->setChecked(on);
   stream_port_->setEnabled(!on);
+  stream_client_->setEnabled(!on);
   stream_status_->setText(detail);
 }
 
 int FunctionPanel::streamPort() const {
   return stream_port_->value();
+}
+
+std::string FunctionPanel::streamClient() const {
+  return stream_client_->currentText().toStdString();
 }
 
 bool FunctionPanel::layerVisible(DisplayLayer layer) const {

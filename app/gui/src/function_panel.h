@@ -4,11 +4,13 @@
 // toggles, plus the function steps (navigation, robot-assisted placement).
 #include <QString>
 #include <QWidget>
+#include <string>
 #include <vector>
 
 #include "step_list.h"
 
 class QCheckBox;
+class QComboBox;
 class QLabel;
 class QPushButton;
 class QSpinBox;
@@ -32,6 +34,8 @@ class FunctionPanel : public QWidget {
   /// Reflects the hologram stream (the button stays in sync when starting fails).
   void setStreaming(bool on, const QString& detail);
   [[nodiscard]] int streamPort() const;
+  /// The headset client the stream is set up for (a tracking::hologramClientPresets() name).
+  [[nodiscard]] std::string streamClient() const;
   [[nodiscard]] bool layerVisible(DisplayLayer layer) const;
 
  signals:
@@ -51,6 +55,7 @@ class FunctionPanel : public QWidget {
   QWidget* live_row_ = nullptr;
   QPushButton* stream_button_ = nullptr;
   QSpinBox* stream_port_ = nullptr;
+  QComboBox* stream_client_ = nullptr;
   QLabel* stream_status_ = nullptr;
   std::vector<std::pair<DisplayLayer, QCheckBox*>> layers_;
 };

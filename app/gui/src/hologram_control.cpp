@@ -16,6 +16,7 @@
 #include "mrsns/core/transform_repository.h"
 #include "mrsns/core/wall_clock.h"
 #include "mrsns/igtlink/server.h"
+#include "mrsns/tracking/hologram_client_preset.h"
 #include "mrsns/tracking/hologram_streamer.h"
 
 namespace mrsns::gui {
@@ -47,8 +48,9 @@ std::vector<tracking::HologramModel> MainWindow::hologramModels() const {
   return models;
 }
 
-bool MainWindow::startHologramStream(int port) {
+bool MainWindow::startHologramStream(int port, const std::string& client) {
   stopHologramStream();
+  hologram_client_ = client;
   if (hologramModels().empty()) {
     function_->setStreaming(false, tr("off"));
     presenter_->present(UserMessage{MessageKind::Error, tr("Hologram stream"),
@@ -58,7 +60,7 @@ bool MainWindow::startHologramStream(int port) {
   }
   if (navigating()) {
     try {
-      hologram_port_ = live_->streamHolograms(hologramModels(), port);
+      hologram_port_ = live_->streamHolograms(hologramModels(), port, hologram_client_);
     } catch (const mrsns::Error& e) {
       function_->setStreaming(false, tr("off"));
       presenter_->present(
@@ -66,8 +68,9 @@ bool MainWindow::startHologramStream(int port) {
                       QString::fromStdString(e.what()) + tr("\nChoose another port if this one is in use.")});
       return false;
     }
-    function_->setStreaming(true,
-                            tr("serving the live navigation on 127.0.0.1:%1, waiting for the HMD").arg(hologram_port_));
+    function_->setStreaming(true, tr("serving the live navigation on 127.0.0.1:%1 to %2, waiting for the HMD")
+                                      .arg(hologram_port_)
+                                      .arg(QString::fromStdString(hologram_client_)));
     return true;
   }
   if (!startWindowStream(port)) return false;
@@ -84,7 +87,9 @@ bool MainWindow::startWindowStream(int port) {
     options.port = static_cast<std::uint16_t>(port);
     auto server = std::make_unique<igtlink::Server>(options);
     auto repository = std::make_shared<TransformRepository>();
-    auto streamer = std::make_unique<tracking::HologramStreamer>(*server, repository, std::move(models));
+    auto streamer = std::make_unique<tracking::HologramStreamer>(
+        *server, repository, std::move(models),
+        tracking::withClientPreset({}, tracking::hologramClientPreset(hologram_client_)));
     server->start();
     stream_server_ = std::move(server);
     streamer_ = std::move(streamer);
@@ -98,13 +103,15 @@ bool MainWindow::startWindowStream(int port) {
   auto* timer = new QTimer(this);
   timer->setObjectName(QStringLiteral("hologramTimer"));
   port = stream_server_->port();
-  connect(timer, &QTimer::timeout, this, [this, port] {
+  const QString client = QString::fromStdString(hologram_client_);
+  connect(timer, &QTimer::timeout, this, [this, port, client] {
     if (!streamer_) return;
     streamer_->update(unixTimeSeconds());
-    function_->setStreaming(true, tr("serving %1 clients on 127.0.0.1:%2").arg(streamer_->readyClients()).arg(port));
+    function_->setStreaming(
+        true, tr("serving %1 %2 clients on 127.0.0.1:%3").arg(streamer_->readyClients()).arg(client).arg(port));
   });
   timer->start(33);
-  function_->setStreaming(true, tr("serving on 127.0.0.1:%1, waiting for the HMD").arg(port));
+  function_->setStreaming(true, tr("serving on 127.0.0.1:%1 to %2, waiting for the HMD").arg(port).arg(client));
   return true;
 }
 

@@ -301,9 +301,10 @@ bool LiveNavigation::stopRobot(const QString& reason) {
   return ok;
 }
 
-std::uint16_t LiveNavigation::streamHolograms(std::vector<tracking::HologramModel> models, int port) {
+std::uint16_t LiveNavigation::streamHolograms(std::vector<tracking::HologramModel> models, int port,
+                                              const std::string& client) {
   if (!loop_) return 0;
-  return loop_->streamHolograms(std::move(models), port);
+  return loop_->streamHolograms(std::move(models), port, client);
 }
 
 void LiveNavigation::stopHologramStream() {

@@ -85,7 +85,7 @@ class LiveNavigation : public QObject {
   /// Hands the hologram stream to the running loop (its repository, the
   /// tracked tools forwarded); returns the port. Throws like
   /// NavigationLoop::streamHolograms; false-y (0) when not running.
-  std::uint16_t streamHolograms(std::vector<tracking::HologramModel> models, int port);
+  std::uint16_t streamHolograms(std::vector<tracking::HologramModel> models, int port, const std::string& client);
   void stopHologramStream();
   /// Re-adds the tool objects after the scene was cleared (session reloaded).
   void addTools();

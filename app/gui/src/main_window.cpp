@@ -124,7 +124,7 @@ MainWindow::MainWindow(MainWindowOptions options, QWidget* parent) : QMainWindow
   connect(function_, &FunctionPanel::resetCameraRequested, display_, &DisplayArea::resetCamera);
   connect(function_, &FunctionPanel::hologramStreamToggled, this, [this](bool on) {
     if (on) {
-      startHologramStream(function_->streamPort());
+      startHologramStream(function_->streamPort(), function_->streamClient());
     } else {
       stopHologramStream();
     }

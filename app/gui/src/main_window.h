@@ -120,7 +120,8 @@ class MainWindow : public QMainWindow {
   /// repository, with the tracked tools' transforms (one stream, send-only:
   /// nothing a client sends reaches the loop or the robot); otherwise the
   /// window serves the models alone.
-  bool startHologramStream(int port);
+  /// `client` names the headset client's preset (tracking::hologramClientPresets()).
+  bool startHologramStream(int port, const std::string& client = "slicer");
   void stopHologramStream();
   [[nodiscard]] bool hologramStreaming() const { return hologram_port_ != 0; }
 
@@ -250,6 +251,7 @@ class MainWindow : public QMainWindow {
   std::unique_ptr<igtlink::Server> stream_server_;
   std::unique_ptr<tracking::HologramStreamer> streamer_;
   int hologram_port_ = 0;  // the stream the user asked for (0: off), kept across navigation start/stop
+  std::string hologram_client_ = "slicer";  // and the headset client it is set up for
   bool startWindowStream(int port);
   void stopWindowStream();
   [[nodiscard]] std::vector<tracking::HologramModel> hologramModels() const;

@@ -81,7 +81,7 @@ bool MainWindow::startNavigation(workflow::NavigationOptions options) {
     live_recording_ = name;
     if (hologram_port_ != 0) {
       try {
-        live_->streamHolograms(hologramModels(), hologram_port_);
+        live_->streamHolograms(hologramModels(), hologram_port_, hologram_client_);
         function_->setStreaming(true, tr("serving the live navigation on 127.0.0.1:%1").arg(hologram_port_));
       } catch (const mrsns::Error& e) {
         hologram_port_ = 0;

@@ -69,6 +69,13 @@ HologramStreamer::HologramStreamer(igtlink::Server& server, std::shared_ptr<Tran
     stream.query = repository_->prepare(frames.from, frames.to);
     streams_.push_back(std::move(stream));
   }
+  if (options_.max_streams > 0 && streams_.size() > options_.max_streams) {
+    throw InvalidArgumentError("hologram stream: " + std::to_string(streams_.size()) +
+                               " models and transforms to stream, but this client moves " +
+                               std::to_string(options_.max_streams) +
+                               " object(s) with whatever TRANSFORM it receives; stream only that many models");
+  }
+  if (options_.transforms_only) mesh_bytes_.clear();
   server_.onConnect([this](igtlink::ClientId c) { onConnect(c); });
   server_.onDisconnect([this](igtlink::ClientId c) { onDisconnect(c); });
   server_.onMessage([this](igtlink::ClientId c, const igtlink::Message& m) { onClientMessage(c, m); });
@@ -124,8 +131,10 @@ void HologramStreamer::update(double fallback_timestamp) noexcept {
                            : (usableTimestamp(fallback_timestamp) ? fallback_timestamp : 0.0);
       if ((stream.announced && ok != stream.ok) || (!stream.announced && !ok)) {
         stream.ok = ok;
-        sendToReady(statusBytes(stream, t), igtlink::Channel::Reliable);
-        stats_.statuses_queued += ready_.size();
+        if (!options_.transforms_only) {
+          sendToReady(statusBytes(stream, t), igtlink::Channel::Reliable);
+          stats_.statuses_queued += ready_.size();
+        }
         if (!ok) logger()->warn("hologram stream: tracking of '{}' lost", stream.device);
       }
       stream.ok = ok;
@@ -156,12 +165,13 @@ void HologramStreamer::onConnect(igtlink::ClientId client) noexcept {
       if (server_.sendEncoded(client, bytes, igtlink::Channel::Reliable)) ++stats_.meshes_queued;
     }
     for (const auto& stream : streams_) {
-      if (stream.announced && !stream.ok) {
+      if (!options_.transforms_only && stream.announced && !stream.ok) {
         server_.sendEncoded(client, statusBytes(stream, 0.0), igtlink::Channel::Reliable);
         ++stats_.statuses_queued;
       }
     }
-    if (!prompt_.empty() && server_.sendEncoded(client, promptBytes(), igtlink::Channel::Reliable)) {
+    if (!options_.transforms_only && !prompt_.empty() &&
+        server_.sendEncoded(client, promptBytes(), igtlink::Channel::Reliable)) {
       ++stats_.prompts_queued;
     }
     ready_.insert(client);
@@ -196,6 +206,7 @@ void HologramStreamer::setPrompt(const std::string& text) {
   if (text.size() > 65535) throw InvalidArgumentError("hologram stream: a prompt is at most 65535 bytes");
   std::lock_guard lock(mutex_);
   prompt_ = text;
+  if (options_.transforms_only) return;  // the client cannot show it
   sendToReady(promptBytes(), igtlink::Channel::Reliable);
   stats_.prompts_queued += ready_.size();
 }

@@ -7,6 +7,7 @@
 #include "mrsns/core/log.h"
 #include "mrsns/core/wall_clock.h"
 #include "mrsns/igtlink/server.h"
+#include "mrsns/tracking/hologram_client_preset.h"
 #include "mrsns/workflow/navigation.h"
 #include "navigation_robot.h"
 #include "tracking_recorder.h"
@@ -95,7 +96,8 @@ double NavigationLoop::elapsed() const {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
 }
 
-std::uint16_t NavigationLoop::streamHolograms(std::vector<tracking::HologramModel> models, int port) {
+std::uint16_t NavigationLoop::streamHolograms(std::vector<tracking::HologramModel> models, int port,
+                                              const std::string& client) {
   if (port < 0 || port > 65535) {
     throw InvalidArgumentError("navigation: hologram port " + std::to_string(port) +
                                " is not a TCP port: use 1-65535, or 0 for a free one");
@@ -107,6 +109,8 @@ std::uint16_t NavigationLoop::streamHolograms(std::vector<tracking::HologramMode
   auto server = std::make_unique<igtlink::Server>(server_options);
   tracking::HologramStreamOptions stream_options;
   stream_options.forward_transforms = options_.hologram_forward_transforms;
+  stream_options = tracking::withClientPreset(
+      std::move(stream_options), tracking::hologramClientPreset(client.empty() ? options_.hologram_client : client));
   // Send-only: nothing a client sends reaches the repository, the supervisor or the robot.
   auto streamer = std::make_unique<tracking::HologramStreamer>(*server, repository_, std::move(models), stream_options);
   std::lock_guard stream_lock(stream_mutex_);

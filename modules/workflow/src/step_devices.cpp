@@ -11,6 +11,7 @@
 #include "mrsns/deformation/shape_tracker.h"
 #include "mrsns/deformation/simulated_sweep.h"
 #include "mrsns/io/sequence_file.h"
+#include "mrsns/tracking/hologram_client_preset.h"
 #include "mrsns/workflow/navigation.h"
 #include "step_internal.h"
 #include "step_navigation_robot.h"
@@ -193,7 +194,7 @@ StepResult runConnectDevices(Session& session, const Json& params, const StepCon
 StepResult runNavigation(Session& session, const Json& params, const StepContext& context) {
   const Params p("navigation", params,
                  {MRSNS_DEVICE_KEYS, MRSNS_NAVIGATION_ROBOT_KEYS, "duration_s", "record", "deformation_cases",
-                  "deformation_frames", "stream_holograms"});
+                  "deformation_frames", "stream_holograms", "hmd_client"});
   NavigationOptions options;
   options.devices = deviceOptions(p);
   const double duration = p.number("duration_s", 3.0);
@@ -213,6 +214,7 @@ StepResult runNavigation(Session& session, const Json& params, const StepContext
     outputs.push_back(name.substr(0, name.size() - 4) + ".raw");
   }
   options.stream_holograms = p.boolean("stream_holograms", false);
+  options.hologram_client = tracking::hologramClientPreset(p.text("hmd_client", "slicer")).name;
   // The supervisor needs the patient and the probe; a playback or PlusServer
   // source may name its tools differently, so only the simulator is supervised
   // by default.

@@ -97,6 +97,15 @@ struct HologramStreamOptions {
   /// to meshes and transforms alike.
   bool unity = false;
   igtlink::HeaderVersion version = igtlink::HeaderVersion::kV2;
+  /// Send TRANSFORMs alone: no POLYDATA, STATUS or prompt STRING, for a client
+  /// whose reader stops at any other type (its models are preloaded by name;
+  /// lost tracking shows as its model no longer moving). See
+  /// hologram_client_preset.h.
+  bool transforms_only = false;
+  /// At most this many transforms streamed (models and forward_transforms
+  /// together), for a client that moves one object with every TRANSFORM it
+  /// receives whatever its name; 0: no limit. More is refused at construction.
+  std::size_t max_streams = 0;
   /// Repository transforms also streamed under their own names (e.g.
   /// "ProbeToTracker" for a Slicer client); sent when Ok, like the models.
   std::vector<std::string> forward_transforms;
@@ -128,7 +137,8 @@ class HologramStreamer {
   /// inbound limits: construct it before server.start(). Encodes every mesh
   /// once. Throws
   /// InvalidArgumentError for an empty or too long or repeated device name, an
-  /// empty mesh or frame name, or a forward transform that is not "AToB".
+  /// empty mesh or frame name, a forward transform that is not "AToB", or
+  /// more streams than options.max_streams.
   HologramStreamer(igtlink::Server& server, std::shared_ptr<TransformRepository> repository,
                    std::vector<HologramModel> models, HologramStreamOptions options = {});
   ~HologramStreamer();

@@ -161,6 +161,9 @@ struct NavigationOptions {
   /// Tracked transforms also streamed under their own names ("StylusToTracker"), so a client sees the
   /// tools move before an HMD calibration places the models (HologramStreamOptions::forward_transforms).
   std::vector<std::string> hologram_forward_transforms;
+  /// The headset client the stream is set up for (tracking::hologramClientPresets(): "slicer",
+  /// "openigtlink-unity", "hololens2-pedicle", "unity-metres").
+  std::string hologram_client = "slicer";
   /// The scene callback runs at most this often.
   double scene_rate_hz = 30.0;
 };
@@ -267,8 +270,10 @@ class NavigationLoop {
   bool stopRobot(const std::string& reason);
   /// Serves `models` (and hologram_forward_transforms) from this loop's repository on
   /// options.hologram_address:port (0: a free port) while the loop runs; replaces a running stream.
-  /// Returns the port. Throws like igtlink::Server (port in use) and HologramStreamer (bad models).
-  std::uint16_t streamHolograms(std::vector<tracking::HologramModel> models, int port);
+  /// `client` names the headset client's preset (empty: options.hologram_client). Returns the port. Throws
+  /// like igtlink::Server (port in use), HologramStreamer (bad models, more than the client can show) and
+  /// tracking::hologramClientPreset (unknown client).
+  std::uint16_t streamHolograms(std::vector<tracking::HologramModel> models, int port, const std::string& client = {});
   /// Ends the hologram stream (clients are disconnected); navigation goes on. Idempotent.
   void stopHologramStream();
   /// Simulated tracker failure: stops the tracking source while the loop and the robot keep running.
