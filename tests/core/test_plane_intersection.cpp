@@ -161,6 +161,43 @@ TEST(PlaneIntersection, OpenTubeCutAlongItsAxisGivesTwoOpenLines) {
   }
 }
 
+TEST(PlaneIntersection, FacesCutFromSidesGiveTheMeshCutAndBadIndicesAreRefused) {
+  const TriangleMesh box = test::box(Eigen::Vector3d(10, 10, 10), 1, Eigen::Vector3d(-5, -5, -5));
+  const Eigen::Vector3d point(0.0, 0.0, 1.5), normal(0.2, 0.1, 1.0);
+  const Eigen::VectorXd d = (box.vertices.rowwise() - point.transpose()) * normal.normalized();
+  std::vector<char> positive(static_cast<std::size_t>(d.size()));
+  for (Eigen::Index v = 0; v < d.size(); ++v) positive[static_cast<std::size_t>(v)] = d(v) >= 0.0 ? 1 : 0;
+  int asked = 0;
+  const auto vertex = [&](std::int32_t v, Eigen::Vector3d& x, double& distance) {
+    ++asked;
+    x = box.vertices.row(v).transpose();
+    distance = d(v);
+  };
+  const auto cut = cutFacesWithPlane(box.faces, positive, vertex);
+  const auto reference = cutMeshWithPlane(box, point, normal);
+  ASSERT_EQ(cut.size(), 1U);
+  ASSERT_EQ(reference.size(), 1U);
+  ASSERT_EQ(cut[0].polyline.points.size(), reference[0].polyline.points.size());
+  for (std::size_t i = 0; i < cut[0].polyline.points.size(); ++i) {
+    EXPECT_LT((cut[0].polyline.points[i] - reference[0].polyline.points[i]).norm(), 1e-12);
+  }
+  // Only the endpoints of crossed edges are asked for, once per edge (the box's four vertical edges and the
+  // four side faces' diagonals).
+  EXPECT_EQ(cut[0].edges.size(), 8U);
+  EXPECT_EQ(asked, 16);
+  // A face beyond the sides given, or a negative index: refused, naming the vertex.
+  auto bad = box.faces;
+  bad(3, 1) = static_cast<std::int32_t>(positive.size());
+  try {
+    (void)cutFacesWithPlane(bad, positive, vertex);
+    FAIL() << "a face beyond the vertices was accepted";
+  } catch (const InvalidArgumentError& e) {
+    EXPECT_NE(std::string(e.what()).find("vertex 8 of 8"), std::string::npos) << e.what();
+  }
+  bad(3, 1) = -2;
+  EXPECT_THROW((void)cutFacesWithPlane(bad, positive, vertex), InvalidArgumentError);
+}
+
 TEST(PlaneIntersection, ResampleClosedContourAtUniformArcLength) {
   Polyline3d square;
   square.closed = true;

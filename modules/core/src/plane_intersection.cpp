@@ -50,15 +50,20 @@ std::vector<PlaneCutContour> cutFacesWithPlane(
     const Eigen::Matrix<std::int32_t, Eigen::Dynamic, 3, Eigen::RowMajor>& faces, std::span<const char> positive,
     const PlaneCutVertexFn& vertex, const PlaneCutOptions& options) {
   const auto nv = static_cast<std::int64_t>(positive.size());
+  // Every index checked once, up front: the face loop below is the hot part
+  // of a live frame's cut (tens of thousands of faces, a few hundred crossed).
+  std::int32_t lowest = 0, highest = 0;
+  for (Eigen::Index i = 0; i < faces.size(); ++i) {  // one pass, both ends (vectorised)
+    lowest = std::min(lowest, faces.data()[i]);
+    highest = std::max(highest, faces.data()[i]);
+  }
+  if (lowest < 0 || highest >= nv) {
+    throw InvalidArgumentError("cutFacesWithPlane: a face refers to vertex " +
+                               std::to_string(lowest < 0 ? lowest : highest) + " of " + std::to_string(nv));
+  }
   // A vertex on the plane counts as positive: each edge then either crosses
   // or not, with no third case, and the contour passes through that vertex.
-  auto side = [&](std::int32_t v) {
-    if (v < 0 || v >= nv) {
-      throw InvalidArgumentError("cutFacesWithPlane: a face refers to vertex " + std::to_string(v) + " of " +
-                                 std::to_string(nv));
-    }
-    return positive[static_cast<std::size_t>(v)] != 0;
-  };
+  const char* side = positive.data();
 
   std::unordered_map<std::int64_t, std::int32_t> node_of_edge;
   std::vector<Eigen::Vector3d> node_points;
@@ -83,13 +88,14 @@ std::vector<PlaneCutContour> cutFacesWithPlane(
 
   std::vector<Segment> segments;
   for (Eigen::Index f = 0; f < faces.rows(); ++f) {
+    const std::int32_t v[3] = {faces(f, 0), faces(f, 1), faces(f, 2)};
+    const bool p[3] = {side[v[0]] != 0, side[v[1]] != 0, side[v[2]] != 0};
+    if (p[0] == p[1] && p[1] == p[2]) continue;  // the face does not cross the plane
     Segment seg;
     for (int k = 0; k < 3; ++k) {
-      const std::int32_t a = faces(f, k);
-      const std::int32_t b = faces(f, (k + 1) % 3);
-      const bool pa = side(a), pb = side(b);
-      if (pa && !pb) seg.from = nodeOnEdge(a, b);
-      if (!pa && pb) seg.to = nodeOnEdge(a, b);
+      const int k1 = k == 2 ? 0 : k + 1;
+      if (p[k] && !p[k1]) seg.from = nodeOnEdge(v[k], v[k1]);
+      if (!p[k] && p[k1]) seg.to = nodeOnEdge(v[k], v[k1]);
     }
     if (seg.from >= 0 && seg.to >= 0) segments.push_back(seg);
   }

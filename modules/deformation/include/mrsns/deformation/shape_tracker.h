@@ -111,8 +111,8 @@ class PosteriorShapeTracker {
 
   // The contours of the shape at coefficients `alpha` cut by the plane, each
   // point tied to its edge. Vertices whose side of the plane the prior mean
-  // and a bound decide (|n.(mu_v - p)| > |Q_v| |alpha|) are not evaluated;
-  // only those near the plane are (O(band) instead of O(N n)).
+  // and a bound decide (|n.(mu_v - p)| > sqrt(n^T Q_v Q_v^T n) |alpha|) are
+  // not evaluated; only those near the plane are (O(band) instead of O(N n)).
   [[nodiscard]] std::vector<ModelContour> cutShape(const Eigen::VectorXd& alpha, const Eigen::Vector3d& plane_point,
                                                    const Eigen::Vector3d& plane_normal) const;
   [[nodiscard]] const Eigen::VectorXd& cutCoefficients() const;
@@ -120,9 +120,10 @@ class PosteriorShapeTracker {
   ShapeModel model_;
   ShapeTrackerOptions options_;
   // Q = U diag(sqrt(lambda)) row-major (a vertex's 3 x n block is contiguous),
-  // and the Frobenius norm of each vertex's block (bounds |Q_v alpha|).
+  // and each vertex's Q_v Q_v^T as (xx, yy, zz, 2xy, 2xz, 2yz): n^T Q_v Q_v^T n
+  // bounds how far the vertex moves along a plane's normal n.
   Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> q_rows_;
-  Eigen::VectorXd vertex_bound_;
+  Eigen::Matrix<double, Eigen::Dynamic, 6, Eigen::RowMajor> vertex_gram_;
   Eigen::VectorXd zero_coefficients_;
   PosteriorNormalEquations equations_;
   mutable PosteriorResult posterior_;  // mean filled on first use after a change
