@@ -115,7 +115,9 @@ void validate(const ServeOptions& o) {
   }
   if (o.port < 0 || o.port > 65535) throw InvalidArgumentError("--port must be 0..65535");
   if (o.plus_port < 1 || o.plus_port > 65535) throw InvalidArgumentError("--plus-port must be 1..65535");
-  if (o.igtl_version != 0 && o.igtl_version != 1 && o.igtl_version != 2) throw InvalidArgumentError("--igtl-version must be 1 or 2");
+  if (o.igtl_version != 0 && o.igtl_version != 1 && o.igtl_version != 2) {
+    throw InvalidArgumentError("--igtl-version must be 1 or 2");
+  }
   if (o.source == "playback") {
     if (o.sequence.empty()) throw InvalidArgumentError("--source playback needs --sequence FILE (a PLUS .mha/.nrrd)");
     if (!std::filesystem::is_regular_file(o.sequence)) {

@@ -45,6 +45,11 @@ HologramStreamer::HologramStreamer(igtlink::Server& server, std::shared_ptr<Tran
       throw InvalidArgumentError("hologram stream: model '" + model.name + "' has no triangles; give a mesh");
     }
     if (model.frame.empty()) throw InvalidArgumentError("hologram stream: model '" + model.name + "' has no frame");
+    Stream stream;
+    stream.device = model.name;
+    stream.query = repository_->prepare(model.frame, options_.hologram_frame);
+    streams_.push_back(std::move(stream));
+    if (options_.transforms_only) continue;  // the client has its models; none is encoded
     const TriangleMesh mesh = options_.unity ? meshToUnity(model.mesh) : model.mesh;
     auto message = igtlink::makeMessage(model.name, igtlink::polyDataFromMesh(mesh));
     if (options_.version == igtlink::HeaderVersion::kV2) {
@@ -56,10 +61,6 @@ HologramStreamer::HologramStreamer(igtlink::Server& server, std::shared_ptr<Tran
     }
     mesh_bytes_.push_back(
         std::make_shared<const std::vector<std::uint8_t>>(igtlink::encodeMessage(message, options_.version)));
-    Stream stream;
-    stream.device = model.name;
-    stream.query = repository_->prepare(model.frame, options_.hologram_frame);
-    streams_.push_back(std::move(stream));
   }
   for (const auto& name : options_.forward_transforms) {
     checkName(name, "forwarded transform");
@@ -75,7 +76,6 @@ HologramStreamer::HologramStreamer(igtlink::Server& server, std::shared_ptr<Tran
                                std::to_string(options_.max_streams) +
                                " object(s) with whatever TRANSFORM it receives; stream only that many models");
   }
-  if (options_.transforms_only) mesh_bytes_.clear();
   server_.onConnect([this](igtlink::ClientId c) { onConnect(c); });
   server_.onDisconnect([this](igtlink::ClientId c) { onDisconnect(c); });
   server_.onMessage([this](igtlink::ClientId c, const igtlink::Message& m) { onClientMessage(c, m); });
