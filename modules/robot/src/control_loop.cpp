@@ -50,6 +50,10 @@ void ControlLoop::setSoftTissue(std::shared_ptr<const MeshLocator> surface) {
   supervisor_.setSoftTissue(std::move(surface));
 }
 
+void ControlLoop::setSoftTissue(std::shared_ptr<const SoftTissueSurface> surface) {
+  supervisor_.setSoftTissue(std::move(surface));
+}
+
 CycleReport ControlLoop::tick(const TrackingSnapshot& tracking, double cycle_time_s, std::uint64_t missed_cycles) {
   CycleReport report;
   ++cycle_;

@@ -2,11 +2,13 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <numbers>
 #include <string>
 
+#include "mrsns/core/error.h"
 #include "mrsns/core/log.h"
 
 namespace mrsns::robot {
@@ -86,6 +88,60 @@ void SafetySupervisor::transition(SupervisorState to, StopReason reason, StopCom
   log_.push_back(std::move(r));
 }
 
+void SafetySupervisor::setSoftTissue(std::shared_ptr<const SoftTissueSurface> surface) {
+  if (surface && surface->surface && !surface->face_sd_mm.empty() &&
+      static_cast<Eigen::Index>(surface->face_sd_mm.size()) != surface->surface->faceCount()) {
+    throw InvalidArgumentError(fmt::format("soft tissue: {} standard deviations for {} faces",
+                                           surface->face_sd_mm.size(), surface->surface->faceCount()));
+  }
+  soft_tissue_ = surface && surface->surface ? std::move(surface) : nullptr;
+}
+
+void SafetySupervisor::setSoftTissue(std::shared_ptr<const MeshLocator> surface) {
+  if (!surface) {
+    soft_tissue_.reset();
+    return;
+  }
+  auto exact = std::make_shared<SoftTissueSurface>();
+  exact->surface = std::move(surface);
+  soft_tissue_ = std::move(exact);
+}
+
+SafetySupervisor::SoftTissueIntrusion SafetySupervisor::softTissueIntrusion(const SupervisorInputs& in) const {
+  const SoftTissueSurface& tissue = *soft_tissue_;
+  const double shaft = std::max(0.0, limits_.drill_shaft_length_mm);
+  const int steps = shaft > 0.0 ? static_cast<int>(std::ceil(shaft / std::max(limits_.drill_shaft_step_mm, 0.01))) : 0;
+  const double step = steps > 0 ? shaft / steps : 0.0;
+  // Any point of the shaft lies within step/2 of a check point.
+  const double base = limits_.soft_tissue_margin_mm + 0.5 * step;
+  const double k = std::max(0.0, limits_.soft_tissue_margin_sd);
+  const double reach = base + k * tissue.max_sd_mm;
+  auto margin_at = [&](Eigen::Index face) {
+    return tissue.face_sd_mm.empty() ? base : base + k * tissue.face_sd_mm[static_cast<std::size_t>(face)];
+  };
+  const Eigen::Vector3d back = -in.axis_plan.normalized();
+  // Far from the whole shaft (the usual case): one query.
+  if (steps > 0 && tissue.surface->closestPointWithin(in.tip_plan + 0.5 * shaft * back, 0.5 * shaft + reach).face < 0) {
+    return {SurfacePoint{}, base, 0.0};
+  }
+  SurfacePoint nearest;
+  SoftTissueIntrusion worst{SurfacePoint{}, base, 0.0};
+  double worst_excess = 0.0;
+  for (int i = 0; i <= steps; ++i) {
+    const auto sp = tissue.surface->closestPointWithin(in.tip_plan + (i * step) * back, reach);
+    if (sp.face < 0) continue;
+    if (sp.distance < nearest.distance) nearest = sp;
+    const double margin = margin_at(sp.face);
+    if (sp.distance - margin < worst_excess) {
+      worst_excess = sp.distance - margin;
+      worst = {sp, margin, i * step};
+    }
+  }
+  if (worst.nearest.face >= 0) return worst;
+  nearest.face = -1;  // within reach but outside its own margin: reported, not a stop
+  return {nearest, base, 0.0};
+}
+
 SupervisorDecision SafetySupervisor::tick(const SupervisorInputs& in) {
   SupervisorDecision d;
   const double nan = std::numeric_limits<double>::quiet_NaN();
@@ -157,12 +213,15 @@ SupervisorDecision SafetySupervisor::tick(const SupervisorInputs& in) {
     }
     const bool tracking_ok = in.tool_tracked && in.patient_tracked && in.tracker_connected;
     if (tracking_ok && soft_tissue_ && (moving_phase || state_ == SupervisorState::Paused)) {
-      const auto sp = soft_tissue_->closestPointWithin(in.tip_plan, limits_.soft_tissue_margin_mm);
-      d.soft_tissue_distance_mm = sp.distance;
-      if (sp.face >= 0) {
+      const SoftTissueIntrusion hit = softTissueIntrusion(in);
+      d.soft_tissue_distance_mm = hit.nearest.distance;
+      if (hit.nearest.face >= 0) {
         fail(StopReason::SoftTissueMargin, StopCommand::ProtectiveStop,
-             fmt::format("drill tip {:.2f} mm from the soft tissue (margin {:.2f})", sp.distance,
-                         limits_.soft_tissue_margin_mm));
+             hit.behind_tip_mm > 0.0
+                 ? fmt::format("drill shaft ({:.1f} mm behind the tip) {:.2f} mm from the soft tissue (margin {:.2f} mm)",
+                               hit.behind_tip_mm, hit.nearest.distance, hit.margin_mm)
+                 : fmt::format("drill tip {:.2f} mm from the soft tissue (margin {:.2f} mm)", hit.nearest.distance,
+                               hit.margin_mm));
       }
     }
     if (tracking_ok && axis_.valid) {

@@ -97,6 +97,7 @@ class ControlLoop {
   bool acknowledge();
 
   void setSoftTissue(std::shared_ptr<const MeshLocator> surface);
+  void setSoftTissue(std::shared_ptr<const SoftTissueSurface> surface);
   void setHandTwist(const Twist& hand) { hand_ = hand; }
 
   [[nodiscard]] const SafetySupervisor& supervisor() const { return supervisor_; }

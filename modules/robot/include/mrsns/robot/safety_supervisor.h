@@ -55,7 +55,14 @@ struct SupervisorLimits {
   double max_tracking_age_s = 0.1;     ///< a pose older than this is stale (tracker at 60 Hz: 6 frames)
   double max_axis_distance_mm = 1.5;   ///< drill tip from the planned axis, while advancing
   double max_axis_angle_rad = 0.035;   ///< drill axis from the planned axis (2 deg), while advancing
-  double soft_tissue_margin_mm = 2.0;  ///< drill tip to the current soft-tissue surface
+  double soft_tissue_margin_mm = 2.0;  ///< drill (tip and shaft) to the current soft-tissue surface
+  /// k: the margin grows by k standard deviations of the surface where the drill is nearest
+  /// (SoftTissueSurface::face_sd_mm: where the posterior shape model is unsure, the drill keeps further away).
+  double soft_tissue_margin_sd = 2.0;
+  /// The drill's shaft, from the tip back along the axis, is kept out of the margin too (0: the tip alone).
+  double drill_shaft_length_mm = 0.0;
+  /// Spacing of the shaft's check points; the margin grows by half of it, so no point between two is missed.
+  double drill_shaft_step_mm = 0.5;
   Eigen::Vector3d workspace_min_mm = Eigen::Vector3d(-900, -900, -300);  ///< tip box in the robot base
   Eigen::Vector3d workspace_max_mm = Eigen::Vector3d(900, 900, 900);
   double max_tcp_speed_mm_s = 100.0;  ///< drill tip speed limit
@@ -86,6 +93,15 @@ struct SupervisorInputs {
   double tip_speed_mm_s = 0;
   double cycle_time_s = 0;          ///< how long the previous cycle's computation took
   std::uint64_t missed_cycles = 0;  ///< cycles skipped since the previous tick
+};
+
+/// The soft tissue the drill keeps away from, in the plan frame: a surface (e.g. the posterior mean shape of
+/// paper 001, or the part of it near the planned paths) and the standard deviation of each face's position
+/// (the largest of its vertices'; empty: a surface known exactly).
+struct SoftTissueSurface {
+  std::shared_ptr<const MeshLocator> surface;
+  std::vector<double> face_sd_mm;
+  double max_sd_mm = 0.0;  ///< the largest of face_sd_mm
 };
 
 struct PlannedAxis {
@@ -124,8 +140,11 @@ class SafetySupervisor {
 
   void setPlannedAxis(const PlannedAxis& axis) { axis_ = axis; }
   /// The current soft-tissue surface in the plan frame (e.g. the posterior shape), or null for none. Build
-  /// the locator off the control thread and swap it in; the supervisor keeps it alive while it uses it.
-  void setSoftTissue(std::shared_ptr<const MeshLocator> surface) { soft_tissue_ = std::move(surface); }
+  /// it off the control thread and swap it in; the supervisor keeps it alive while it uses it. Throws
+  /// InvalidArgumentError when face_sd_mm is neither empty nor one per face.
+  void setSoftTissue(std::shared_ptr<const SoftTissueSurface> surface);
+  /// A surface known exactly (no standard deviation).
+  void setSoftTissue(std::shared_ptr<const MeshLocator> surface);
   [[nodiscard]] const SupervisorLimits& limits() const { return limits_; }
 
   // Requests (from the control object). Each returns false, changing nothing, when not allowed now.
@@ -155,7 +174,15 @@ class SafetySupervisor {
 
   SupervisorLimits limits_;
   PlannedAxis axis_;
-  std::shared_ptr<const MeshLocator> soft_tissue_;
+  struct SoftTissueIntrusion {
+    SurfacePoint nearest;  ///< face -1 when no check point is within its margin (distance: the nearest found)
+    double margin_mm = 0.0;
+    double behind_tip_mm = 0.0;  ///< where on the shaft
+  };
+  // The drill's check point deepest inside its margin (margin_mm + k sd of the face + half a step).
+  [[nodiscard]] SoftTissueIntrusion softTissueIntrusion(const SupervisorInputs& in) const;
+
+  std::shared_ptr<const SoftTissueSurface> soft_tissue_;
   SupervisorState state_ = SupervisorState::Disabled;
   SupervisorState paused_from_ = SupervisorState::Ready;
   StopReason last_stop_ = StopReason::None;
