@@ -14,6 +14,9 @@ PosteriorShapeTracker::PosteriorShapeTracker(ShapeModel model, const ShapeTracke
     : model_(std::move(model)), options_(options), equations_(std::max<Eigen::Index>(model_.modeCount(), 1)) {
   validateShapeModel(model_, "PosteriorShapeTracker model");
   if (options_.contour_points < 3) throw InvalidArgumentError("PosteriorShapeTracker: contour_points must be >= 3");
+  if (options_.max_observation_age_frames < 0) {
+    throw InvalidArgumentError("PosteriorShapeTracker: max_observation_age_frames must be >= 0 (0: keep every observation)");
+  }
   if (!(options_.update_threshold_mm >= 0.0)) {
     throw InvalidArgumentError("PosteriorShapeTracker: update_threshold_mm must be >= 0");
   }
@@ -30,6 +33,7 @@ PosteriorShapeTracker::PosteriorShapeTracker(ShapeModel model, const ShapeTracke
 
 void PosteriorShapeTracker::reset() {
   observations_.clear();
+  observation_frames_.clear();
   equations_.clear();
   posterior_ = equations_.solve(options_.posterior);
   shape_valid_ = false;
@@ -42,6 +46,13 @@ const Eigen::VectorXd& PosteriorShapeTracker::currentShape() const {
     shape_valid_ = true;
   }
   return shape_;
+}
+
+Eigen::MatrixXd PosteriorShapeTracker::coefficientCovariance() const {
+  if (posterior_.coefficient_covariance.rows() != model_.modeCount()) {
+    return Eigen::MatrixXd::Identity(model_.modeCount(), model_.modeCount());
+  }
+  return posterior_.coefficient_covariance;
 }
 
 const PosteriorResult& PosteriorShapeTracker::posterior() const {
@@ -227,9 +238,28 @@ FrameUpdate PosteriorShapeTracker::update(const Eigen::Isometry3d& model_T_image
     return r;
   }
   const int k = options_.contour_points;
+  ++frames_;
+  if (options_.max_observation_age_frames > 0) {
+    const auto limit = static_cast<std::uint64_t>(options_.max_observation_age_frames);
+    std::size_t kept = 0;
+    for (std::size_t j = 0; j < observations_.size(); ++j) {
+      if (frames_ - observation_frames_[j] > limit) continue;
+      observations_[kept] = observations_[j];
+      observation_frames_[kept] = observation_frames_[j];
+      ++kept;
+    }
+    if (kept != observations_.size()) {
+      r.forgotten = static_cast<int>(observations_.size() - kept);
+      observations_.resize(kept);
+      observation_frames_.resize(kept);
+      equations_.clear();
+      for (const auto& o : observations_) equations_.add(model_, o);
+    }
+  }
   // Kept to undo the frame (reject_implausible_frames).
   const std::size_t count_before = observations_.size();
   std::vector<std::pair<std::size_t, ModelPointObservation>> replaced_before;
+  std::vector<std::uint64_t> frames_before = observation_frames_;
   std::vector<char> model_used(model_contours.size(), 0);
   for (const Polyline3d& fc_image : feature_contours) {
     if (fc_image.points.size() < 3) continue;
@@ -283,10 +313,12 @@ FrameUpdate PosteriorShapeTracker::update(const Eigen::Isometry3d& model_T_image
         const auto j = static_cast<std::size_t>(nearest);
         if (j < count_before) replaced_before.emplace_back(j, observations_[j]);
         observations_[j] = o;
+        observation_frames_[j] = frames_;
         equations_.replace(j, model_, o);
         ++r.replaced;
       } else {
         observations_.push_back(o);
+        observation_frames_.push_back(frames_);
         equations_.add(model_, o);
         ++r.added;
       }
@@ -310,6 +342,7 @@ FrameUpdate PosteriorShapeTracker::update(const Eigen::Isometry3d& model_T_image
     // Undo in reverse order, so an observation replaced twice gets its first value back.
     for (auto it = replaced_before.rbegin(); it != replaced_before.rend(); ++it) observations_[it->first] = it->second;
     observations_.resize(count_before);
+    observation_frames_ = std::move(frames_before);
     equations_.clear();
     for (const auto& o : observations_) equations_.add(model_, o);
     r.observations = static_cast<int>(observations_.size());

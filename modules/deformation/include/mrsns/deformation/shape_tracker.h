@@ -7,6 +7,7 @@
 // posterior (Eq. 10-11).
 
 #include <Eigen/Geometry>
+#include <cstdint>
 #include <span>
 #include <string>
 #include <vector>
@@ -56,6 +57,11 @@ struct ShapeTrackerOptions {
   /// model's span (deform-track with an external segmenter) it throws away
   /// good frames; the trial turns it on for its built-in segmenter.
   bool reject_implausible_frames = false;
+  /// Observations not renewed (added or replaced) in this many frames are forgotten; 0 keeps them all
+  /// (the paper's Algorithm 1). Tissue that moves while it is imaged needs it: a wall that moved further
+  /// than D^Thr adds new observations beside the old ones instead of replacing them, and the posterior
+  /// then averages where the tissue is with where it was.
+  int max_observation_age_frames = 0;
   PosteriorOptions posterior;
 };
 
@@ -69,6 +75,7 @@ struct FrameUpdate {
   int added = 0;
   int replaced = 0;
   int observations = 0;  ///< Size of V^p after the frame.
+  int forgotten = 0;     ///< Observations older than max_observation_age_frames dropped before the frame.
   int excluded = 0;      ///< Observations flagged implausible by the posterior.
   double mahalanobis = 0.0;
   bool plausible = true;
@@ -100,6 +107,8 @@ class PosteriorShapeTracker {
   [[nodiscard]] const PosteriorResult& posterior() const;
   /// The posterior mean coefficients alpha (cheap: no shape evaluation).
   [[nodiscard]] const Eigen::VectorXd& coefficients() const { return posterior_.coefficients; }
+  /// The posterior covariance of alpha (n x n; the prior's identity before the first observation). Cheap.
+  [[nodiscard]] Eigen::MatrixXd coefficientCovariance() const;
   /// V^p with V^model: each observation's model point and the observed point.
   [[nodiscard]] const std::vector<ModelPointObservation>& observations() const { return observations_; }
 
@@ -128,6 +137,8 @@ class PosteriorShapeTracker {
   PosteriorNormalEquations equations_;
   mutable PosteriorResult posterior_;  // mean filled on first use after a change
   std::vector<ModelPointObservation> observations_;
+  std::vector<std::uint64_t> observation_frames_;  // the frame that last renewed each observation
+  std::uint64_t frames_ = 0;                       // update() calls with feature contours
   mutable Eigen::VectorXd shape_;  // posterior mean shape, valid when shape_valid_
   mutable bool shape_valid_ = false;
 };
