@@ -29,8 +29,8 @@ namespace {
 using Json = nlohmann::json;
 
 constexpr double kPivotEnd_s = 10.5;
-constexpr double kTouchStart_s = 12.0;
-constexpr double kTouch_s = 0.8 + 0.5 + 1.5 + 0.5;  // travel, down, dwell, up
+constexpr double kPhantomTouchStart_s = 12.0;
+constexpr double kPhantomTouch_s = 0.8 + 0.5 + 1.5 + 0.5;  // travel, down, dwell, up
 
 /// The default room without its patient and robot, its timeline compressed: pivot, the phantom's landmarks,
 /// then the probe's sweep (held lifted above the bath until then). `misplaced` touches a landmark beside it.
@@ -54,7 +54,7 @@ std::filesystem::path writeUsScenario(const std::filesystem::path& dir, int seed
       if (!misplaced.is_null()) touch["misplaced"] = misplaced;
       tool["motion"] = Json::array({{{"kind", "hold"}, {"duration_s", 0.5}},
                                     {{"kind", "pivot"}, {"amplitude_deg", 25}, {"frequency_hz", 0.2}, {"duration_s", 10}},
-                                    {{"kind", "hold"}, {"duration_s", kTouchStart_s - kPivotEnd_s}},
+                                    {{"kind", "hold"}, {"duration_s", kPhantomTouchStart_s - kPivotEnd_s}},
                                     touch,
                                     {{"kind", "hold"}, {"duration_s", 60}}});
     }
@@ -62,7 +62,7 @@ std::filesystem::path writeUsScenario(const std::filesystem::path& dir, int seed
       // The default's first segment is the probe held lifted above the bath until the sweep; here until the
       // landmarks are touched (and a second more, the workstation's step change).
       EXPECT_EQ(tool["motion"][0]["kind"], "hold");
-      tool["motion"][0]["duration_s"] = kTouchStart_s + 8 * kTouch_s + 1.0;
+      tool["motion"][0]["duration_s"] = kPhantomTouchStart_s + 8 * kPhantomTouch_s + 1.0;
       // Without the default's temporal calibration (up and down over the bath's floor) before the sweep.
       auto& motion = tool["motion"];
       if (motion.size() > 2 && motion[2]["kind"] == "up_down") motion.erase(motion.begin() + 1, motion.begin() + 3);

@@ -722,13 +722,29 @@ Scenario parseScenario(const std::string& json_text, const std::filesystem::path
     p.reference_T_ct = n.pose("ct_to_reference", p.reference_T_ct);
     if (n.has("soft_tissue")) {
       const Node t = n.child("soft_tissue");
-      t.allow({"shape_model", "model_to_ct", "modes", "amplitude_sd", "period_s"});
+      t.allow({"shape_model", "model_to_ct", "modes", "amplitude_sd", "period_s", "push"});
       SoftTissueSpec tissue;
       tissue.shape_model = filePath(t, "shape_model", base_dir);
       tissue.ct_T_model = t.pose("model_to_ct", tissue.ct_T_model);
       tissue.modes = t.integer("modes", tissue.modes, 0, 1000);
       tissue.amplitude_sd = t.number("amplitude_sd", tissue.amplitude_sd, 0.0, 5.0);
       tissue.period_s = t.number("period_s", tissue.period_s, 0.1, 86400.0);
+      if (t.has("push")) {
+        const Node push = t.child("push");
+        push.allow({"start_s", "ramp_s", "sd"});
+        tissue.push_start_s = push.number("start_s", tissue.push_start_s, 0.0, 86400.0);
+        tissue.push_ramp_s = push.number("ramp_s", tissue.push_ramp_s, 0.01, 3600.0);
+        const auto& sd = push.json().contains("sd") ? push.json().at("sd") : Json();
+        if (!sd.is_array() || sd.empty() || sd.size() > 1000) {
+          push.failKey("sd", "must be an array of 1 to 1000 numbers (standard deviations per mode)");
+        }
+        for (const auto& v : sd) {
+          if (!v.is_number() || !std::isfinite(v.get<double>()) || std::abs(v.get<double>()) > 5.0) {
+            push.failKey("sd", "holds a value that is not a number in [-5, 5]");
+          }
+          tissue.push_sd.push_back(v.get<double>());
+        }
+      }
       p.soft_tissue = tissue;
     }
     s.patient = p;

@@ -11,6 +11,9 @@
 
 #include "mrsns/core/error.h"
 #include "mrsns/core/rigid.h"
+#include "mrsns/core/surface_distance.h"
+#include "mrsns/io/statismo_io.h"
+#include "mrsns/simulation/soft_tissue.h"
 
 namespace mrsns::simulation {
 
@@ -212,6 +215,112 @@ void scoreHmdCalibration(const Json& session, const Json& truth, Json& scored, J
 
 }  // namespace
 
+// The model's shape at standardised coefficients c (mean + U diag(sqrt(lambda)) c), placed in the CT.
+TriangleMesh shapeInCt(const ShapeModel& model, const Eigen::VectorXd& c, const Eigen::Isometry3d& ct_T_model) {
+  Eigen::VectorXd full = Eigen::VectorXd::Zero(model.modeCount());
+  full.head(std::min(full.size(), c.size())) = c.head(std::min(full.size(), c.size()));
+  const Eigen::VectorXd shape = model.mean + model.basis * (model.variances.cwiseMax(0.0).cwiseSqrt().asDiagonal() * full);
+  TriangleMesh mesh = model.reference;
+  mesh.frame.clear();
+  mesh.normals.resize(0, 3);
+  for (Eigen::Index i = 0; i < mesh.vertices.rows(); ++i) {
+    mesh.vertices.row(i) = (ct_T_model * Eigen::Vector3d(shape.segment<3>(3 * i))).transpose();
+  }
+  return mesh;
+}
+
+// The soft tissue navigation followed on the room's ultrasound (the navigation step's soft-tissue file: the
+// posterior after every update) against the room's deforming vessel at each frame's instant (paper 001 Eq. 21,
+// 22), beside the prior (the model's mean) at the same instants.
+void scoreSoftTissue(const std::filesystem::path& session_dir, const Json& session, const Json& truth, Json& scored,
+                     Json& not_scored) {
+  const Json& st = truth.at("static");
+  const Json* step = session.contains("steps") && session["steps"].contains("navigation")
+                         ? &session["steps"]["navigation"]
+                         : nullptr;
+  if (!step || step->value("status", "") != "ok" || !fromSimulatedRoom(*step) ||
+      !(*step)["figures"].contains("soft_tissue") || !(*step)["figures"]["soft_tissue"].contains("file")) {
+    not_scored.push_back("navigation soft tissue (not run, off, refused, or not acquired from mrsns-sim)");
+    return;
+  }
+  if (!st.contains("soft_tissue")) {
+    not_scored.push_back("navigation soft tissue (the room's scenario has no deforming soft tissue)");
+    return;
+  }
+  const Json record = readJson(session_dir / (*step)["figures"]["soft_tissue"]["file"].get<std::string>(),
+                               "navigation soft-tissue file");
+  if (record.value("format", "") != "mrsns-soft-tissue/1") {
+    throw FormatError("the navigation's soft-tissue file is not mrsns-soft-tissue/1");
+  }
+  const ShapeModel estimate_model = io::readStatismoModel(session_dir / record.at("shape_model").get<std::string>());
+  const Eigen::Isometry3d estimate_ct_T_model(matrix(record.at("ct_T_model"), "soft-tissue file ct_T_model"));
+
+  // The room's vessel, rebuilt from the truth file's parameters (the same seed draws the same trajectory).
+  const Json& t = st["soft_tissue"];
+  SoftTissueSpec spec;
+  spec.shape_model = t.at("shape_model").get<std::string>();
+  spec.ct_T_model = Eigen::Isometry3d(matrix(t.at("ModelToCT"), "truth soft tissue ModelToCT"));
+  spec.modes = static_cast<int>(t.at("frequency_factor").size());
+  spec.amplitude_sd = t.at("amplitude_sd").get<double>();
+  spec.period_s = t.at("period_s").get<double>();
+  spec.push_sd = t.value("push_sd", std::vector<double>{});
+  spec.push_start_s = t.value("push_start_s", 0.0);
+  spec.push_ramp_s = t.value("push_ramp_s", 1.0);
+  const DeformingSoftTissue room(io::readStatismoModel(spec.shape_model), spec, st.at("seed").get<std::uint64_t>());
+  ShapeModel truth_model = io::readStatismoModel(spec.shape_model);
+  const double utc0 = truth.at("utc_start").get<double>();
+
+  const Json& updates = record.at("updates");
+  if (updates.empty()) {
+    not_scored.push_back("navigation soft tissue (no posterior update in the soft-tissue file)");
+    return;
+  }
+  // At most 200 updates, evenly spread: a surface distance per update is milliseconds, a run has thousands.
+  const std::size_t stride = std::max<std::size_t>(1, updates.size() / 200);
+  const bool corresponding = estimate_model.mean.size() == truth_model.mean.size();
+  const TriangleMesh prior = shapeInCt(estimate_model, Eigen::VectorXd::Zero(0), estimate_ct_T_model);
+  std::vector<double> sd, sd_max, fp, prior_sd, prior_fp;
+  for (std::size_t i = 0; i < updates.size(); i += stride) {
+    const Json& u = updates[i];
+    const auto coefficients = u.at("coefficients").get<std::vector<double>>();
+    const Eigen::VectorXd c = Eigen::Map<const Eigen::VectorXd>(coefficients.data(),
+                                                                static_cast<Eigen::Index>(coefficients.size()));
+    const double at_s = u.at("timestamp").get<double>() - utc0;
+    const TriangleMesh true_mesh = shapeInCt(truth_model, room.coefficients(at_s), spec.ct_T_model);
+    const TriangleMesh posterior = shapeInCt(estimate_model, c, estimate_ct_T_model);
+    const auto d = surfaceDistance(posterior, true_mesh);
+    sd.push_back(d.mean);
+    sd_max.push_back(d.hausdorff);
+    prior_sd.push_back(surfaceDistance(prior, true_mesh).mean);
+    if (corresponding) {
+      fp.push_back((posterior.vertices - true_mesh.vertices).rowwise().norm().mean());
+      prior_fp.push_back((prior.vertices - true_mesh.vertices).rowwise().norm().mean());
+    }
+  }
+  auto mean = [](const std::vector<double>& v) {
+    double s = 0.0;
+    for (double x : v) s += x;
+    return v.empty() ? 0.0 : s / static_cast<double>(v.size());
+  };
+  Json out = {
+      {"definition",
+       "the posterior after each update (every k-th of the navigation's soft-tissue file, at most 200) against the "
+       "room's vessel at that frame's instant, both in the CT: E^SD the symmetric mean surface distance (Eq. 22), "
+       "E^FP the mean distance of corresponding vertices (Eq. 21 at every vertex; the paper's at 7 fiducial "
+       "points), when the session's model and the room's have the same points; the prior (the model's mean) at "
+       "the same instants beside them"},
+      {"updates_in_file", updates.size()},
+      {"updates_scored", sd.size()},
+      {"posterior_sd_mean_mm", mean(sd)},
+      {"posterior_sd_max_mm", *std::max_element(sd_max.begin(), sd_max.end())},
+      {"prior_sd_mean_mm", mean(prior_sd)}};
+  if (corresponding) {
+    out["posterior_fp_mm"] = mean(fp);
+    out["prior_fp_mm"] = mean(prior_fp);
+  }
+  scored["navigation_soft_tissue"] = out;
+}
+
 std::string scoreSession(const std::filesystem::path& session_dir, const std::filesystem::path& truth_file) {
   const Json session = readJson(session_dir / "session.json", "session");
   const Json truth = readJson(truth_file, "truth file");
@@ -397,6 +506,7 @@ std::string scoreSession(const std::filesystem::path& session_dir, const std::fi
   }
 
   scoreHmdCalibration(session, truth, scored, not_scored);
+  scoreSoftTissue(session_dir, session, truth, scored, not_scored);
 
   out["scored"] = scored;
   out["not_scored"] = not_scored;

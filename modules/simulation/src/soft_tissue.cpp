@@ -26,6 +26,10 @@ DeformingSoftTissue::DeformingSoftTissue(ShapeModel model, const SoftTissueSpec&
     throw FormatError("patient.soft_tissue.modes is " + std::to_string(spec_.modes) + " but " +
                       spec.shape_model.string() + " has " + std::to_string(model_.modeCount()) + " modes");
   }
+  if (static_cast<Eigen::Index>(spec_.push_sd.size()) > model_.modeCount()) {
+    throw FormatError("patient.soft_tissue.push.sd has " + std::to_string(spec_.push_sd.size()) + " values but " +
+                      spec.shape_model.string() + " has " + std::to_string(model_.modeCount()) + " modes");
+  }
   std::mt19937_64 rng(seed * 104729ULL + 11ULL);
   std::uniform_real_distribution<double> factor(0.7, 1.3), phase(0.0, kTwoPi);
   frequency_factor_.resize(spec_.modes);
@@ -40,6 +44,12 @@ Eigen::VectorXd DeformingSoftTissue::coefficients(double t) const {
   Eigen::VectorXd alpha = Eigen::VectorXd::Zero(model_.modeCount());
   for (int i = 0; i < spec_.modes; ++i) {
     alpha[i] = spec_.amplitude_sd * std::sin(kTwoPi * t / (spec_.period_s * frequency_factor_[i]) + phase_[i]);
+  }
+  if (!spec_.push_sd.empty() && t > spec_.push_start_s) {
+    // Smoothstep: the tissue starts and ends the push at rest.
+    const double u = std::min(1.0, (t - spec_.push_start_s) / spec_.push_ramp_s);
+    const double ramp = u * u * (3.0 - 2.0 * u);
+    for (std::size_t i = 0; i < spec_.push_sd.size(); ++i) alpha[static_cast<Eigen::Index>(i)] += ramp * spec_.push_sd[i];
   }
   return alpha;
 }
@@ -74,8 +84,12 @@ std::string DeformingSoftTissue::truthJson() const {
   }
   j["ModelToCT"] = m;
   j["formula"] =
-      "alpha_i(t) = amplitude_sd * sin(2 pi t / (period_s * frequency_factor_i) + phase_i), t in s since "
-      "utc_start; shape = mean + basis * diag(sqrt(variances)) * alpha";
+      "alpha_i(t) = amplitude_sd * sin(2 pi t / (period_s * frequency_factor_i) + phase_i) + push_sd_i * s(u), "
+      "u = clamp((t - push_start_s) / push_ramp_s, 0, 1), s(u) = u^2 (3 - 2u); t in s since utc_start; "
+      "shape = mean + basis * diag(sqrt(variances)) * alpha";
+  j["push_sd"] = spec_.push_sd;
+  j["push_start_s"] = spec_.push_start_s;
+  j["push_ramp_s"] = spec_.push_ramp_s;
   j["amplitude_sd"] = spec_.amplitude_sd;
   j["period_s"] = spec_.period_s;
   j["frequency_factor"] =

@@ -165,12 +165,18 @@ struct FlatTargetSpec {
 /// sinusoids of `amplitude_sd` standard deviations around the mean, each with
 /// a period of `period_s` times a factor drawn in [0.7, 1.3]. It replaces the
 /// generated phantom's straight vessel or the label map's vessel labels.
+/// A push (a retractor, the drill's pressure on nearby tissue) adds
+/// `push_sd` (standard deviations per mode) to the coefficients, ramped in
+/// smoothly over `push_ramp_s` from `push_start_s` and held.
 struct SoftTissueSpec {
   std::filesystem::path shape_model;  ///< statismo .h5 (io::readStatismoModel)
   Eigen::Isometry3d ct_T_model = Eigen::Isometry3d::Identity();
   int modes = 3;
   double amplitude_sd = 1.0;
   double period_s = 20.0;
+  std::vector<double> push_sd;  ///< empty: no push
+  double push_start_s = 0.0;
+  double push_ramp_s = 1.0;
 };
 
 /// The patient: the generated cervical phantom, or a CT's label map.

@@ -5,6 +5,7 @@
 //
 //   shape(t) = mean + basis * diag(sqrt(variances)) * alpha(t)
 //   alpha_i(t) = amplitude_sd * sin(2 pi t / (period_s * f_i) + phi_i)   (i < modes; 0 beyond)
+//                + push_sd_i * smoothstep((t - push_start_s) / push_ramp_s)  (a scripted push, held)
 //
 // f_i in [0.7, 1.3] and phi_i in [0, 2 pi) are drawn from the seed, so the
 // truth file can hold the whole trajectory as a few numbers.
