@@ -274,5 +274,42 @@ TEST(MeshLocator, LeafSizeDoesNotChangeAnswers) {
   }
 }
 
+// A deforming surface (the live soft tissue): the refitted locator answers exactly as a fresh one on the moved
+// vertices (closest point, within-bound, signed distance), with a tree grouped for the old shape, for small
+// and large deformations (an 8192-face tube: the tree's top levels were built on several threads).
+TEST(MeshLocator, RefittedAnswersAsAFreshBuildOnTheMovedVertices) {
+  const TriangleMesh rest = test::cylinder(3.0, 40.0, 64, 64, true);
+  ASSERT_GE(rest.faceCount(), 8192);
+  const MeshLocator locator(rest);
+  std::mt19937 rng(5);
+  for (const double amplitude : {0.3, 6.0}) {
+    TriangleMesh moved = rest;
+    for (Eigen::Index i = 0; i < moved.vertices.rows(); ++i) {
+      const double z = moved.vertices(i, 2);
+      moved.vertices(i, 0) += amplitude * std::sin(0.2 * z);  // the tube bent sideways
+      moved.vertices(i, 1) += 0.5 * amplitude * std::cos(0.15 * z);
+    }
+    const MeshLocator refit = locator.refitted(moved.vertices);
+    const MeshLocator fresh(moved);
+    const Eigen::Vector3d lo = moved.vertices.colwise().minCoeff().transpose() - Eigen::Vector3d::Constant(5);
+    const Eigen::Vector3d hi = moved.vertices.colwise().maxCoeff().transpose() + Eigen::Vector3d::Constant(5);
+    for (int i = 0; i < 300; ++i) {
+      const Eigen::Vector3d q = randomPoint(rng, lo, hi);
+      const SurfacePoint a = refit.closestPoint(q), b = fresh.closestPoint(q);
+      ASSERT_NEAR(a.distance, b.distance, 1e-9) << "amplitude " << amplitude << " query " << q.transpose();
+      EXPECT_NEAR(a.distance, refit.closestPointBruteForce(q).distance, 1e-9);
+      EXPECT_EQ(refit.closestPointWithin(q, 1.0).face >= 0, fresh.closestPointWithin(q, 1.0).face >= 0);
+      EXPECT_NEAR(refit.signedClosestPoint(q).signed_distance, fresh.signedClosestPoint(q).signed_distance, 1e-9);
+    }
+    EXPECT_TRUE(refit.faceNormals().isApprox(fresh.faceNormals(), 1e-12));
+  }
+  // The original is untouched.
+  EXPECT_NEAR(locator.closestPoint(Eigen::Vector3d(10, 0, 0)).distance, 7.0, 1e-9);
+  EXPECT_THROW((void)locator.refitted(rest.vertices.topRows(10)), InvalidArgumentError);
+  PointsN3 bad = rest.vertices;
+  bad(3, 1) = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THROW((void)locator.refitted(bad), InvalidArgumentError);
+}
+
 }  // namespace
 }  // namespace mrsns

@@ -293,25 +293,7 @@ void MeshLocator::build(const MeshLocatorOptions& options) {
       0, 16384);
   // Bounds bottom-up (children always come after their parent): each
   // subtree's concurrently, then the top levels'.
-  auto bound = [this](std::vector<Node>& nodes, std::size_t from, std::size_t to) {
-    for (auto n = to; n-- > from;) {
-      Node& node = nodes[n];
-      if (node.count > 0) {
-        node.lo = node.hi = triangles_[static_cast<std::size_t>(node.first)][0];
-        for (std::int32_t i = node.first; i < node.first + node.count; ++i) {
-          for (const Eigen::Vector3d& corner : triangles_[static_cast<std::size_t>(i)]) {
-            node.lo = node.lo.cwiseMin(corner);
-            node.hi = node.hi.cwiseMax(corner);
-          }
-        }
-      } else {
-        const Node& l = nodes[static_cast<std::size_t>(node.left)];
-        const Node& r = nodes[static_cast<std::size_t>(node.right)];
-        node.lo = l.lo.cwiseMin(r.lo);
-        node.hi = l.hi.cwiseMax(r.hi);
-      }
-    }
-  };
+  auto bound = [this](std::vector<Node>& nodes, std::size_t from, std::size_t to) { boundNodes(nodes, from, to); };
   parallelForBlocks(
       0, subtrees.size(),
       [&](std::size_t first, std::size_t last) {
@@ -340,6 +322,30 @@ void MeshLocator::build(const MeshLocatorOptions& options) {
   // split at the top into leaves only, those leaves). A subtree's root sits
   // among them and is bounded already; bounding it again gives the same box.
   bound(nodes_, 0, top_count);
+  buildSearchNodes();
+}
+
+void MeshLocator::boundNodes(std::vector<Node>& nodes, std::size_t from, std::size_t to) const {
+  for (auto n = to; n-- > from;) {
+    Node& node = nodes[n];
+    if (node.count > 0) {
+      node.lo = node.hi = triangles_[static_cast<std::size_t>(node.first)][0];
+      for (std::int32_t i = node.first; i < node.first + node.count; ++i) {
+        for (const Eigen::Vector3d& corner : triangles_[static_cast<std::size_t>(i)]) {
+          node.lo = node.lo.cwiseMin(corner);
+          node.hi = node.hi.cwiseMax(corner);
+        }
+      }
+    } else {
+      const Node& l = nodes[static_cast<std::size_t>(node.left)];
+      const Node& r = nodes[static_cast<std::size_t>(node.right)];
+      node.lo = l.lo.cwiseMin(r.lo);
+      node.hi = l.hi.cwiseMax(r.hi);
+    }
+  }
+}
+
+void MeshLocator::buildSearchNodes() {
   // The closest-point search walks a compact copy of the inner nodes: each
   // 64-byte record (one cache line) holds both children's boxes, in float
   // rounded outwards, and where they are, so a step down the tree touches
@@ -364,6 +370,31 @@ void MeshLocator::build(const MeshLocatorOptions& options) {
       out.count[c] = child.count;
     }
   }
+}
+
+MeshLocator MeshLocator::refitted(const PointsN3& vertices) const {
+  if (vertices.rows() != vertices_.rows()) {
+    throw InvalidArgumentError("MeshLocator::refitted: " + std::to_string(vertices.rows()) + " vertices for a mesh of " +
+                               std::to_string(vertices_.rows()));
+  }
+  if (!vertices.allFinite()) throw InvalidArgumentError("MeshLocator::refitted: a vertex is not finite");
+  MeshLocator out = *this;
+  out.vertices_ = vertices;
+  out.topology_ = std::make_shared<Topology>();  // pseudo-normals of the new shape, on first use
+  TriangleMesh mesh;
+  mesh.vertices = vertices;
+  mesh.faces = faces_.cast<int>();
+  out.face_normals_ = mrsns::faceNormals(mesh);
+  out.scale_ = std::max(boundingBox(mesh).diagonal().norm(), 1e-300);
+  for (std::size_t i = 0; i < out.order_.size(); ++i) {
+    for (int k = 0; k < 3; ++k) {
+      out.triangles_[i][static_cast<std::size_t>(k)] = vertices.row(faces_(out.order_[i], k)).transpose();
+    }
+  }
+  // The same tree over the moved faces: every box recomputed bottom-up (children come after their parent).
+  out.boundNodes(out.nodes_, 0, out.nodes_.size());
+  out.buildSearchNodes();
+  return out;
 }
 
 void MeshLocator::computePseudoNormals(Topology& t) const {

@@ -93,6 +93,12 @@ class MeshLocator {
     return intersectLine(a, b - a, 0.0, 1.0);
   }
 
+  /// The same surface with its vertices moved (a deforming soft tissue: same count, same faces): the tree is
+  /// kept and its boxes recomputed, O(faces) instead of a build's O(faces log faces). Queries stay exact; the
+  /// boxes loosen when faces move far from where the tree grouped them (rebuild then). Throws
+  /// InvalidArgumentError for another vertex count or a non-finite vertex.
+  [[nodiscard]] MeshLocator refitted(const PointsN3& vertices) const;
+
   /// Closest point by testing every face: the reference for tests and benchmarks.
   [[nodiscard]] SurfacePoint closestPointBruteForce(const Eigen::Vector3d& query) const;
 
@@ -118,6 +124,8 @@ class MeshLocator {
   };
 
   void build(const MeshLocatorOptions& options);
+  void boundNodes(std::vector<Node>& nodes, std::size_t from, std::size_t to) const;
+  void buildSearchNodes();
   // What only signed queries need, found on first use (thread-safe): the
   // closedness test and the pseudo-normals cost more than the BVH itself,
   // and ICP or unsigned distances never ask for them.
