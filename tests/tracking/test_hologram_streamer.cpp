@@ -10,6 +10,7 @@
 #include "mrsns/core/error.h"
 #include "mrsns/core/rigid.h"
 #include "mrsns/igtlink/image.h"
+#include "mrsns/igtlink/ndarray.h"
 #include "mrsns/igtlink/polydata_mesh.h"
 #include "mrsns/io/sequence_file.h"
 #include "mrsns/tracking/hologram_streamer.h"
@@ -371,6 +372,79 @@ TEST(UnityConvention, RoundTripsAndPreservesChainsAndRotations) {
   EXPECT_EQ(back.faces, mesh.faces);
   EXPECT_TRUE(back.normals.isApprox(mesh.normals, 1e-12));
   EXPECT_DOUBLE_EQ(meshToUnity(mesh).vertices(1, 0), -0.013);
+}
+
+// A deforming model (the live soft tissue): its vertices move on the headsets as NDARRAY (N x 3 float32, the
+// model's frame, mm; metres and mirrored x for Unity) after the mesh; a headset that connects later gets the
+// mesh, then the latest vertices; a transforms-only client gets none; bad updates are refused.
+TEST(HologramStream, VertexUpdatesMoveADeformingModelOnEveryHeadset) {
+  Scene scene;
+  igtlink::Server server(loopback());
+  HologramStreamer streamer(server, scene.repository, models());
+  server.start();
+  test::Recorder early(server.port());
+  ASSERT_TRUE(waitFor([&] { return streamer.readyClients() == 1; }));
+  TriangleMesh moved = test::tetrahedron(20.0);
+  moved.vertices.col(0).array() += 1.25;
+  streamer.updateMeshVertices("C6", moved.vertices);
+  moved.vertices.col(1).array() -= 2.5;
+  streamer.updateMeshVertices("C6", moved.vertices);
+  ASSERT_TRUE(waitFor([&] { return early.count("NDARRAY") == 2; }));
+  test::Recorder late(server.port());
+  ASSERT_TRUE(waitFor([&] { return late.count("NDARRAY") == 1; }));
+  EXPECT_THROW(streamer.updateMeshVertices("C7", moved.vertices), InvalidArgumentError);
+  EXPECT_THROW(streamer.updateMeshVertices("C6", moved.vertices.topRows(2)), InvalidArgumentError);
+  TriangleMesh bad = moved;
+  bad.vertices(0, 0) = NAN;
+  EXPECT_THROW(streamer.updateMeshVertices("C6", bad.vertices), InvalidArgumentError);
+  server.stop();
+  for (const auto* r : {&early, &late}) {
+    const auto received = r->messages();
+    ASSERT_GE(received.size(), 3U);
+    ASSERT_EQ(received[1].message.header.type, "POLYDATA") << "the mesh comes first";
+    const auto& last = received.back().message;
+    ASSERT_EQ(last.header.type, "NDARRAY");
+    EXPECT_EQ(last.header.device_name, "C6");
+    EXPECT_EQ(last.metadataValue("Units"), "mm");
+    const auto array = igtlink::decodeNdArray(last.as<igtlink::RawContent>()->bytes);
+    ASSERT_EQ(array.size, (std::vector<std::uint16_t>{static_cast<std::uint16_t>(moved.vertices.rows()), 3}));
+    for (Eigen::Index i = 0; i < moved.vertices.rows(); ++i) {
+      for (int c = 0; c < 3; ++c) {
+        EXPECT_EQ(array.values[static_cast<std::size_t>(3 * i + c)], static_cast<float>(moved.vertices(i, c)));
+      }
+    }
+  }
+  EXPECT_EQ(streamer.stats().vertex_updates_queued, 3U);
+
+  // Unity: metres, x mirrored, as the meshes.
+  igtlink::Server unity_server(loopback());
+  HologramStreamer unity(unity_server, scene.repository, models(), streamOptions(igtlink::HeaderVersion::kV2, true));
+  unity_server.start();
+  test::Recorder headset(unity_server.port());
+  ASSERT_TRUE(waitFor([&] { return unity.readyClients() == 1; }));
+  unity.updateMeshVertices("C6", moved.vertices);
+  ASSERT_TRUE(waitFor([&] { return headset.count("NDARRAY") == 1; }));
+  unity_server.stop();
+  const auto u = igtlink::decodeNdArray(headset.messages().back().message.as<igtlink::RawContent>()->bytes);
+  const TriangleMesh expected = meshToUnity(moved);
+  for (Eigen::Index i = 0; i < moved.vertices.rows(); ++i) {
+    for (int c = 0; c < 3; ++c) {
+      EXPECT_NEAR(u.values[static_cast<std::size_t>(3 * i + c)], expected.vertices(i, c), 1e-7);
+    }
+  }
+
+  // A transforms-only client (its models are its own) gets no vertex update.
+  igtlink::Server plain_server(loopback());
+  HologramStreamOptions plain;
+  plain.transforms_only = true;
+  HologramStreamer transforms_only(plain_server, scene.repository, models(), plain);
+  plain_server.start();
+  test::Recorder plain_client(plain_server.port());
+  ASSERT_TRUE(waitFor([&] { return transforms_only.readyClients() == 1; }));
+  transforms_only.updateMeshVertices("C6", moved.vertices);
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  plain_server.stop();
+  EXPECT_EQ(plain_client.count("NDARRAY"), 0U);
 }
 
 TEST(HologramStream, RefusesBadModels) {

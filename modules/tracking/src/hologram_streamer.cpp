@@ -8,6 +8,7 @@
 #include "mrsns/core/wall_clock.h"
 #include "mrsns/igtlink/codec.h"
 #include "mrsns/igtlink/image.h"
+#include "mrsns/igtlink/ndarray.h"
 #include "mrsns/igtlink/polydata_mesh.h"
 #include "mrsns/tracking/unity_convention.h"
 
@@ -48,6 +49,7 @@ HologramStreamer::HologramStreamer(igtlink::Server& server, std::shared_ptr<Tran
     Stream stream;
     stream.device = model.name;
     stream.query = repository_->prepare(model.frame, options_.hologram_frame);
+    model_vertices_[model.name] = model.mesh.vertexCount();
     streams_.push_back(std::move(stream));
     if (options_.transforms_only) continue;  // the client has its models; none is encoded
     const TriangleMesh mesh = options_.unity ? meshToUnity(model.mesh) : model.mesh;
@@ -158,11 +160,57 @@ void HologramStreamer::update(double fallback_timestamp) noexcept {
   }
 }
 
+void HologramStreamer::updateMeshVertices(const std::string& model,
+                                          const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>& vertices) {
+  const auto known = model_vertices_.find(model);
+  if (known == model_vertices_.end()) {
+    throw InvalidArgumentError("hologram stream: no model '" + model + "' to move the vertices of");
+  }
+  if (vertices.rows() != known->second) {
+    throw InvalidArgumentError("hologram stream: model '" + model + "' has " + std::to_string(known->second) +
+                               " vertices, not " + std::to_string(vertices.rows()));
+  }
+  if (vertices.rows() > 65535) {
+    throw InvalidArgumentError("hologram stream: model '" + model + "' has " + std::to_string(vertices.rows()) +
+                               " vertices, more than an NDARRAY dimension holds (65535): decimate it for the headset");
+  }
+  if (!vertices.allFinite()) throw InvalidArgumentError("hologram stream: a vertex of '" + model + "' is not finite");
+  if (options_.transforms_only) return;
+  igtlink::NdArrayFloat32 array;
+  array.size = {static_cast<std::uint16_t>(vertices.rows()), 3};
+  array.values.resize(static_cast<std::size_t>(vertices.rows()) * 3);
+  // Unity clients: left-handed metres, as the meshes (unity_convention.h).
+  const double scale = options_.unity ? 1e-3 : 1.0;
+  const double flip_x = options_.unity ? -1.0 : 1.0;
+  for (Eigen::Index i = 0; i < vertices.rows(); ++i) {
+    array.values[static_cast<std::size_t>(3 * i)] = static_cast<float>(flip_x * scale * vertices(i, 0));
+    array.values[static_cast<std::size_t>(3 * i + 1)] = static_cast<float>(scale * vertices(i, 1));
+    array.values[static_cast<std::size_t>(3 * i + 2)] = static_cast<float>(scale * vertices(i, 2));
+  }
+  auto message =
+      igtlink::makeMessage("NDARRAY", model, igtlink::RawContent{igtlink::encodeNdArray(array)}, unixTimeSeconds());
+  if (options_.version == igtlink::HeaderVersion::kV2) {
+    message.header.version = 2;
+    message.metadata.push_back({"Content", igtlink::kEncodingUsAscii, "MeshVertices"});
+    message.metadata.push_back({"Units", igtlink::kEncodingUsAscii, options_.unity ? "m" : "mm"});
+  }
+  const auto bytes =
+      std::make_shared<const std::vector<std::uint8_t>>(igtlink::encodeMessage(message, options_.version));
+  std::lock_guard lock(mutex_);
+  latest_vertices_[model] = bytes;
+  sendToReady(bytes, igtlink::Channel::Reliable);
+  stats_.vertex_updates_queued += ready_.size();
+}
+
 void HologramStreamer::onConnect(igtlink::ClientId client) noexcept {
   try {
     std::lock_guard lock(mutex_);
     for (const auto& bytes : mesh_bytes_) {
       if (server_.sendEncoded(client, bytes, igtlink::Channel::Reliable)) ++stats_.meshes_queued;
+    }
+    // The deformed shape now, not the mesh's rest shape.
+    for (const auto& [name, bytes] : latest_vertices_) {
+      if (server_.sendEncoded(client, bytes, igtlink::Channel::Reliable)) ++stats_.vertex_updates_queued;
     }
     for (const auto& stream : streams_) {
       if (!options_.transforms_only && stream.announced && !stream.ok) {

@@ -3,6 +3,7 @@
 // message, the bytes are identical (CRC included).
 #include <gtest/gtest.h>
 #include <igtlImageMessage.h>
+#include <igtlNDArrayMessage.h>
 #include <igtlPointMessage.h>
 #include <igtlPolyDataMessage.h>
 #include <igtlStatusMessage.h>
@@ -12,6 +13,7 @@
 #include "../igtlink_test_util.h"
 #include "mrsns/core/error.h"
 #include "mrsns/igtlink/codec.h"
+#include "mrsns/igtlink/ndarray.h"
 #include "peer_util.h"
 
 namespace mrsns::igtlink {
@@ -285,6 +287,44 @@ TEST(PeerInterop, StringStatusPointBothWaysAndSameBytes) {
     EXPECT_EQ(decodeMessage(peer_bytes).as<PointContent>()->points[0].name, "Nasion");
     EXPECT_TRUE(peer_bytes == bytes);
   }
+}
+
+// The hologram stream's vertex update of a deforming mesh: N x 3 float32, as the peer unpacks it.
+TEST(PeerInterop, NdArrayVertexUpdateDecodesInThePeer) {
+  NdArrayFloat32 a;
+  a.size = {4, 3};
+  a.values = {1.5f, -2.25f, 30.0f, 0.125f, 7.0f, -8.5f, 1e-3f, 250.0f, -0.0625f, 42.0f, 43.0f, 44.0f};
+  Message m = makeMessage("NDARRAY", "soft-tissue-mean", RawContent{encodeNdArray(a)});
+  m.header.timestamp = (std::uint64_t{kSeconds} << 32) | kFraction;
+  const auto bytes = encodeMessage(m);
+  int status = 0;
+  auto theirs = peerDecode<igtl::NDArrayMessage>(bytes, status);
+  ASSERT_TRUE(status & igtl::MessageHeader::UNPACK_BODY);
+  EXPECT_EQ(theirs->GetType(), igtl::NDArrayMessage::TYPE_FLOAT32);
+  igtl::ArrayBase* array = theirs->GetArray();
+  ASSERT_NE(array, nullptr);
+  ASSERT_EQ(array->GetDimension(), 2);
+  EXPECT_EQ(array->GetSize()[0], 4);
+  EXPECT_EQ(array->GetSize()[1], 3);
+  ASSERT_EQ(array->GetRawArraySize(), a.values.size() * sizeof(float));
+  const auto* raw = static_cast<const float*>(array->GetRawArray());
+  for (std::size_t i = 0; i < a.values.size(); ++i) EXPECT_EQ(raw[i], a.values[i]) << i;
+  // And back: what the peer packs from the same values decodes to them in ours.
+  auto packed = igtl::NDArrayMessage::New();
+  stamp(packed, "soft-tissue-mean");
+  igtl::ArrayBase::IndexType size = {4, 3};
+  auto* peer_array = new igtl::Array<igtl_float32>;
+  peer_array->SetSize(size);
+  peer_array->SetArray(a.values.data());
+  packed->SetArray(igtl::NDArrayMessage::TYPE_FLOAT32, peer_array);
+  const auto peer_bytes = packedBytes(packed);
+  const Message decoded = decodeMessage(peer_bytes);
+  const auto* body = decoded.as<RawContent>();
+  ASSERT_NE(body, nullptr);
+  const NdArrayFloat32 back = decodeNdArray(body->bytes);
+  EXPECT_EQ(back.size, a.size);
+  EXPECT_EQ(back.values, a.values);
+  EXPECT_TRUE(peer_bytes == bytes);
 }
 
 TEST(PeerInterop, RandomTransformsAndImagesFromThePeerDecode) {

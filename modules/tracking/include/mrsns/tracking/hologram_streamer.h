@@ -129,6 +129,7 @@ struct HologramStreamStats {
   std::uint64_t confirmations = 0;
   std::uint64_t camera_images = 0;
   std::uint64_t prompts_queued = 0;
+  std::uint64_t vertex_updates_queued = 0;  ///< NDARRAY vertex updates, per client
 };
 
 class HologramStreamer {
@@ -158,6 +159,14 @@ class HologramStreamer {
   /// empty STRING is sent). Throws InvalidArgumentError for more than 65535 bytes.
   void setPrompt(const std::string& text);
 
+  /// Moves the vertices of `model` on every headset (a deforming soft tissue: the same count and order as
+  /// its mesh, in the model's frame, mm): an NDARRAY message (N x 3 float32, in the stream's convention)
+  /// named as the model, not a whole POLYDATA; a client that connects later gets the latest after the mesh.
+  /// Nothing is sent to a transforms-only client (its models are its own). Throws InvalidArgumentError for
+  /// an unknown model, another vertex count, more than 65535 vertices or a non-finite value.
+  void updateMeshVertices(const std::string& model,
+                          const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>& vertices);
+
   [[nodiscard]] HologramStreamStats stats() const;
   [[nodiscard]] std::size_t readyClients() const;
 
@@ -180,10 +189,12 @@ class HologramStreamer {
   std::shared_ptr<TransformRepository> repository_;
   HologramStreamOptions options_;
   std::vector<std::shared_ptr<const std::vector<std::uint8_t>>> mesh_bytes_;
+  std::map<std::string, Eigen::Index> model_vertices_;  // each model's vertex count
 
   mutable std::mutex mutex_;  // guards everything below
   std::vector<Stream> streams_;
   std::string prompt_;
+  std::map<std::string, std::shared_ptr<const std::vector<std::uint8_t>>> latest_vertices_;
   std::set<igtlink::ClientId> ready_;
   std::map<igtlink::ClientId, std::chrono::steady_clock::time_point> last_log_;
   HologramStreamStats stats_;
