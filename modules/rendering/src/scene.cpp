@@ -4,6 +4,7 @@
 
 #include <vtkActor.h>
 #include <vtkCamera.h>
+#include <vtkCellArray.h>
 #include <vtkDoubleArray.h>
 #include <vtkFloatArray.h>
 #include <vtkImageData.h>
@@ -12,6 +13,7 @@
 #include <vtkMatrix4x4.h>
 #include <vtkPlaneSource.h>
 #include <vtkPointData.h>
+#include <vtkPoints.h>
 #include <vtkPolyData.h>
 #include <vtkPolyDataMapper.h>
 #include <vtkProperty.h>
@@ -34,7 +36,7 @@
 namespace mrsns::rendering {
 namespace {
 
-enum class Kind { Mesh, Line, ScrewPath, Tool, UltrasoundSlice };
+enum class Kind { Mesh, Line, Polylines, ScrewPath, Tool, UltrasoundSlice };
 
 struct Object {
   Kind kind = Kind::Mesh;
@@ -310,6 +312,46 @@ void Scene::setLine(const std::string& name, const Eigen::Vector3d& a, const Eig
   Object& o = it->second;
   o.line->SetPoint1(a.data());
   o.line->SetPoint2(b.data());
+  o.actors.front()->GetProperty()->SetColor(rgb.x(), rgb.y(), rgb.z());
+}
+
+void Scene::setPolylines(const std::string& name, const std::vector<Polyline3d>& lines, const Eigen::Vector3d& rgb) {
+  checkName(name);
+  detail::checkColor(rgb, "polylines '" + name + "'");
+  auto points = vtkSmartPointer<vtkPoints>::New();
+  auto cells = vtkSmartPointer<vtkCellArray>::New();
+  for (const auto& line : lines) {
+    if (line.points.size() < 2) continue;
+    const vtkIdType first = points->GetNumberOfPoints();
+    for (const auto& p : line.points) {
+      checkPoint(p, "polylines '" + name + "' point");
+      points->InsertNextPoint(p.data());
+    }
+    const auto n = static_cast<vtkIdType>(line.points.size());
+    cells->InsertNextCell(line.closed ? n + 1 : n);
+    for (vtkIdType i = 0; i < n; ++i) cells->InsertCellPoint(first + i);
+    if (line.closed) cells->InsertCellPoint(first);
+  }
+  auto poly = vtkSmartPointer<vtkPolyData>::New();
+  poly->SetPoints(points);
+  poly->SetLines(cells);
+  auto it = impl_->objects.find(name);
+  if (it == impl_->objects.end() || it->second.kind != Kind::Polylines) {
+    Object& o = impl_->replace(name, Kind::Polylines);
+    auto actor = makeActor(nullptr, poly, rgb, 1.0, o.world_T_object);
+    actor->GetProperty()->SetLineWidth(2.0);
+    actor->GetProperty()->LightingOff();
+    // An outline lies in the plane of the frame it was found in: drawn in front of it, not half hidden.
+    if (auto* mapper = vtkPolyDataMapper::SafeDownCast(actor->GetMapper())) {
+      mapper->SetResolveCoincidentTopologyToPolygonOffset();
+      mapper->SetRelativeCoincidentTopologyLineOffsetParameters(-2.0, -20.0);
+    }
+    o.actors = {actor};
+    impl_->addActors(o);
+    return;
+  }
+  Object& o = it->second;
+  vtkPolyDataMapper::SafeDownCast(o.actors.front()->GetMapper())->SetInputData(poly);
   o.actors.front()->GetProperty()->SetColor(rgb.x(), rgb.y(), rgb.z());
 }
 

@@ -14,6 +14,7 @@
 
 #include "mrsns/core/image.h"
 #include "mrsns/core/mesh.h"
+#include "mrsns/core/plane_intersection.h"
 
 class vtkRenderer;
 class vtkRenderWindow;
@@ -91,6 +92,11 @@ class Scene {
 
   /// A straight line from `a` to `b` (world mm), e.g. a tool's trajectory.
   void setLine(const std::string& name, const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& rgb);
+
+  /// Outlines (world mm), e.g. the lumens segmented in the live ultrasound frame: each polyline drawn as a
+  /// line strip, closed ones back to their first point; replaced whole at each call (an empty list shows
+  /// nothing). Throws InvalidArgumentError for a non-finite point or an rgb outside [0, 1].
+  void setPolylines(const std::string& name, const std::vector<Polyline3d>& lines, const Eigen::Vector3d& rgb);
 
   /// A planned screw path: a tube of `diameter_mm` from entry to target with
   /// a sphere at each end (entry slightly larger), world mm.
