@@ -95,6 +95,11 @@ void PlusServerEmulator::start() {
   o.port = impl_->bound_port ? impl_->bound_port : impl_->options.port;
   // Clients of a tracker send only requests: a few KB is plenty.
   o.decode.max_body_size = 64 * 1024;
+  // PlusServer writes to each client with blocking sends on the client's own thread: a client that stalls
+  // for a moment (a loaded workstation: 100-150 ms off the CPU) delays its stream but loses nothing. The
+  // queue holds about half a second of a full room (8 tools at 60 Hz and 30 frames/s) before the oldest
+  // message goes; the default 16 lost a replayed frame in a loaded run.
+  o.stream_queue_limit = 256;
   auto server = std::make_unique<igtlink::Server>(o);
   std::weak_ptr<Impl> weak = impl_;
   server->onConnect([weak](igtlink::ClientId id) {
