@@ -11,6 +11,7 @@
 #include "mrsns/deformation/shape_model_ops.h"
 #include "mrsns/deformation/shape_tracker.h"
 #include "mrsns/deformation/vessel_phantom.h"
+#include "translating_vessel.h"
 
 namespace mrsns::deformation {
 namespace {
@@ -284,6 +285,66 @@ TEST(ShapeTracker, AFrameThatMakesThePosteriorImplausibleIsUndone) {
     EXPECT_EQ(twice.observations()[i].point, observations_after_first[i].point);
   }
   EXPECT_EQ(twice.coefficients(), alpha_after_first);
+}
+
+// The ideal segmenter's contours of `mesh` in the plane of sweep frame f of n (image coordinates).
+std::vector<Polyline3d> sweepFeatures(const TriangleMesh& mesh, int f, int n, Eigen::Isometry3d& model_T_image) {
+  model_T_image = Eigen::Isometry3d::Identity();
+  model_T_image.translation() = Eigen::Vector3d(-16.0, -12.0, -27.0 + 54.0 * f / (n - 1));
+  std::vector<Polyline3d> features;
+  for (const auto& c : intersectMeshWithPlane(mesh, model_T_image.translation(), model_T_image.linear().col(2))) {
+    if (!c.closed) continue;
+    Polyline3d p;
+    p.closed = true;
+    for (const auto& q : c.points) p.points.push_back(model_T_image.inverse() * q);
+    features.push_back(p);
+  }
+  return features;
+}
+
+// Tissue that moves while it is imaged: a vessel swept at +3 mm, then at -3 mm (moved sideways by more than
+// the 1.2 mm replacement distance, so the new observations do not replace the old). Keeping every observation
+// (the paper) leaves the posterior between the two positions; with a lifetime shorter than a sweep the first
+// sweep's observations are forgotten and the posterior is where the vessel is now.
+TEST(ShapeTracker, ObservationsOlderThanTheirLifetimeAreForgotten) {
+  const ShapeModel model = test::translatingVessel(5.0);  // 1 SD moves the whole vessel 5 mm along x
+  constexpr int kFrames = 40, kLifetime = 15;
+  auto shape = [&](double shift_mm) {
+    Eigen::VectorXd c(1);
+    c[0] = shift_mm / 5.0;
+    return Eigen::VectorXd(model.mean + model.basis * (model.variances.cwiseSqrt().asDiagonal() * c));
+  };
+  auto run = [&](int lifetime, int& forgotten, std::size_t& kept_observations) {
+    ShapeTrackerOptions opts;
+    opts.posterior.noise_sigma_mm = 0.3;
+    opts.max_observation_age_frames = lifetime;
+    PosteriorShapeTracker tracker(model, opts);
+    forgotten = 0;
+    for (const double shift : {3.0, -3.0}) {
+      const TriangleMesh mesh = shapeMesh(model, shape(shift));
+      for (int f = 0; f < kFrames; ++f) {
+        Eigen::Isometry3d model_T_image;
+        const auto features = sweepFeatures(mesh, f, kFrames, model_T_image);
+        forgotten += tracker.update(model_T_image, features).forgotten;
+      }
+    }
+    kept_observations = tracker.observations().size();
+    return 5.0 * tracker.coefficients()[0];  // the posterior's shift, mm
+  };
+  int forgotten_all = 0, forgotten_lifetime = 0;
+  std::size_t observations_all = 0, observations_lifetime = 0;
+  const double every = run(0, forgotten_all, observations_all);
+  const double recent = run(kLifetime, forgotten_lifetime, observations_lifetime);
+  EXPECT_EQ(forgotten_all, 0);
+  EXPECT_GT(forgotten_lifetime, 0);
+  EXPECT_LT(observations_lifetime, observations_all);
+  // Every observation kept: the two sweeps weigh about equally, the posterior sits between them.
+  EXPECT_LT(std::abs(every), 1.5) << every;
+  // Only the second sweep's last frames: the vessel where it is now (the contours are exact; sigma 0.3 mm).
+  EXPECT_NEAR(recent, -3.0, 0.3) << recent;
+  ShapeTrackerOptions bad;
+  bad.max_observation_age_frames = -1;
+  EXPECT_THROW(PosteriorShapeTracker(model, bad), InvalidArgumentError);
 }
 
 TEST(DeformationTrial, DefaultProtocolImprovesOnThePrior) {

@@ -9,30 +9,18 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
-#include "mrsns/deformation/vessel_phantom.h"
 #include "mrsns/io/statismo_io.h"
 #include "mrsns/simulation/score.h"
 #include "mrsns/simulation/soft_tissue.h"
 #include "test_data.h"
+#include "translating_vessel.h"
 
 namespace mrsns::simulation {
 namespace {
 
 using Json = nlohmann::json;
 
-ShapeModel translatingVessel() {
-  ShapeModel model;
-  model.reference = deformation::makeVesselPhantom(deformation::VesselDeformation{});
-  const auto n = model.reference.vertexCount();
-  model.mean.resize(3 * n);
-  model.basis = Eigen::MatrixXd::Zero(3 * n, 1);
-  for (Eigen::Index i = 0; i < n; ++i) {
-    model.mean.segment<3>(3 * i) = model.reference.vertices.row(i).transpose();
-    model.basis(3 * i, 0) = 1.0 / std::sqrt(static_cast<double>(n));
-  }
-  model.variances = Eigen::VectorXd::Constant(1, 25.0 * static_cast<double>(n));  // 1 SD = 5 mm along x
-  return model;
-}
+using test::translatingVessel;  // 1 SD = 5 mm along x
 
 struct Case {
   std::filesystem::path session, truth;

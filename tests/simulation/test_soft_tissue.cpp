@@ -13,25 +13,12 @@
 #include "mrsns/simulation/soft_tissue.h"
 #include "mrsns/simulation/world.h"
 #include "test_data.h"
+#include "translating_vessel.h"
 
 namespace mrsns::simulation {
 namespace {
 
-// A vessel model with one mode: the whole vessel moves along x with an SD of 5 mm.
-ShapeModel translatingVessel() {
-  ShapeModel model;
-  model.reference = deformation::makeVesselPhantom(deformation::VesselDeformation{});
-  const auto n = model.reference.vertexCount();
-  model.mean.resize(3 * n);
-  model.basis = Eigen::MatrixXd::Zero(3 * n, 1);
-  for (Eigen::Index i = 0; i < n; ++i) {
-    model.mean.segment<3>(3 * i) = model.reference.vertices.row(i).transpose();
-    model.basis(3 * i, 0) = 1.0 / std::sqrt(static_cast<double>(n));
-  }
-  // A unit basis vector spread over n vertices moves each by 1/sqrt(n): variance n * 25 moves each by 5 mm per SD.
-  model.variances = Eigen::VectorXd::Constant(1, 25.0 * static_cast<double>(n));
-  return model;
-}
+using test::translatingVessel;
 
 TEST(SoftTissue, TheVesselFollowsTheShapeModelOverTimeAndTheTruthHoldsItsTrajectory) {
   const auto dir = test::scratchDirectory("soft-tissue");

@@ -57,7 +57,8 @@ struct ShapeTrackerOptions {
   /// model's span (deform-track with an external segmenter) it throws away
   /// good frames; the trial turns it on for its built-in segmenter.
   bool reject_implausible_frames = false;
-  /// Observations not renewed (added or replaced) in this many frames are forgotten; 0 keeps them all
+  /// Observations not renewed (added or replaced) in this many frames are forgotten (frames that cut the
+  /// model and bring feature contours: a frame without any does not age them); 0 keeps them all
   /// (the paper's Algorithm 1). Tissue that moves while it is imaged needs it: a wall that moved further
   /// than D^Thr adds new observations beside the old ones instead of replacing them, and the posterior
   /// then averages where the tissue is with where it was.
