@@ -9,6 +9,7 @@
 #include "mrsns/igtlink/server.h"
 #include "mrsns/tracking/hologram_client_preset.h"
 #include "mrsns/workflow/navigation.h"
+#include "live_soft_tissue.h"
 #include "navigation_robot.h"
 #include "tracking_recorder.h"
 #include "video_recorder.h"
@@ -60,9 +61,40 @@ NavigationLoop::NavigationLoop(NavigationOptions options, std::vector<tracking::
   if (video.empty() && !options_.recording.empty()) {
     video = options_.recording.parent_path() / (options_.recording.stem().string() + "_video.mhd");
   }
-  if (!video.empty()) {
-    video_ = std::make_unique<detail::VideoRecorder>(video, options_.sync_interval_s);
-    source_->setImageCallback([v = video_.get()](const tracking::TrackedImage& image) { v->push(image); });
+  if (!video.empty()) video_ = std::make_unique<detail::VideoRecorder>(video, options_.sync_interval_s);
+  if (!options_.soft_tissue.shape_model.empty()) {
+    // The supervisor watches the soft tissue near the path the robot follows (in the plan, i.e. CT, frame).
+    std::vector<registration::ScrewPath> paths;
+    if (robot_) paths.push_back(ro.plan);
+    soft_tissue_ = std::make_unique<detail::LiveSoftTissue>(
+        options_.soft_tissue, std::move(paths), [this] { return elapsed(); },
+        [this](const std::string& kind, const std::string& message) {
+          std::lock_guard lock(mutex_);
+          addEvent(elapsed(), kind, message);
+        });
+    if (!options_.soft_tissue.hologram_model.empty()) {
+      soft_tissue_->setMeshSink([this](const std::shared_ptr<const TriangleMesh>& mesh) {
+        std::lock_guard stream_lock(stream_mutex_);
+        if (!streamer_) return;
+        try {
+          streamer_->updateMeshVertices(options_.soft_tissue.hologram_model, mesh->vertices);
+          ++hologram_vertex_updates_;
+        } catch (const Error& e) {
+          // A stream without that model (another client preset, a model of other vertices): said once.
+          if (!hologram_vertex_error_.exchange(true)) logger()->warn("navigation: soft tissue on the headsets: {}", e.what());
+        }
+      });
+    }
+    if (robot_) {
+      soft_tissue_->setSurfaceSink([r = robot_.get()](std::shared_ptr<const robot::SoftTissueSurface> surface,
+                                                      double arrived_s) { r->setSoftTissue(std::move(surface), arrived_s); });
+    }
+  }
+  if (video_ || soft_tissue_) {
+    source_->setImageCallback([v = video_.get(), t = soft_tissue_.get()](const tracking::TrackedImage& image) {
+      if (v) v->push(image);
+      if (t) t->push(image);
+    });
   }
   if (options_.stream_holograms && !models.empty()) streamHolograms(std::move(models), options_.hologram_port);
   for (const auto& name : options_.required_transforms) {
@@ -70,6 +102,8 @@ NavigationLoop::NavigationLoop(NavigationOptions options, std::vector<tracking::
     required_.push_back(repository_->prepare(n.from, n.to));
   }
   source_->setUpdateCallback([this](std::span<const tracking::ToolUpdate> updates) {
+    // The probe poses that place the frames, at once: a frame must not wait for the loop's queue.
+    if (soft_tissue_) soft_tissue_->observe(updates);
     {
       std::lock_guard lock(mutex_);
       queue_.emplace_back(std::vector<tracking::ToolUpdate>(updates.begin(), updates.end()), elapsed());
@@ -144,6 +178,7 @@ void NavigationLoop::start() {
     status_.running = true;
   }
   thread_ = std::thread([this] { run(); });
+  if (soft_tissue_) soft_tissue_->start();
   source_->start();
 }
 
@@ -153,6 +188,7 @@ void NavigationLoop::stop() {
   if (robot_) robot_->stop();
   source_->stop();
   if (video_) video_->stop();  // every frame the source delivered is on disk
+  if (soft_tissue_) soft_tissue_->stop();
   wake_.notify_all();
   if (thread_.joinable()) thread_.join();
   if (robot_) pollRobot();
@@ -476,7 +512,9 @@ NavigationStatus NavigationLoop::status() const {
   }
   std::lock_guard lock(mutex_);
   NavigationStatus s = status_;
+  if (soft_tissue_) soft_tissue_->fillStatus(s);
   s.hologram_port = port;
+  s.hologram_vertex_updates = hologram_vertex_updates_.load();
   s.hologram_clients = clients;
   s.source = source_->status();
   if (robot_) robot_->fillStatus(s);
@@ -503,6 +541,22 @@ std::vector<NavigationLatencySample> NavigationLoop::latencySeries() const {
 std::vector<NavigationEvent> NavigationLoop::events() const {
   std::lock_guard lock(mutex_);
   return events_;
+}
+
+std::string NavigationLoop::deviceIdentity() const {
+  return source_->deviceIdentity();
+}
+
+std::vector<SoftTissueSample> NavigationLoop::softTissueSeries() const {
+  return soft_tissue_ ? soft_tissue_->samples() : std::vector<SoftTissueSample>{};
+}
+
+std::optional<LiveUltrasoundFrame> NavigationLoop::liveUltrasound() const {
+  return soft_tissue_ ? soft_tissue_->latestFrame() : std::nullopt;
+}
+
+std::shared_ptr<const TriangleMesh> NavigationLoop::softTissueMesh() const {
+  return soft_tissue_ ? soft_tissue_->currentMeshCt() : nullptr;
 }
 
 }  // namespace mrsns::workflow

@@ -124,6 +124,11 @@ NavigationRobot::NavigationRobot(const NavigationRobotOptions& options, double m
                                 static_cast<std::uint64_t>(std::ceil(options.ur_silence_s * options.control_rate_hz)));
   }
   control.guidance.advance_speed_mm_s = options.advance_speed_mm_s;
+  control.limits.soft_tissue_margin_mm = options.soft_tissue_margin_mm;
+  control.limits.soft_tissue_margin_sd = options.soft_tissue_margin_sd;
+  // The shaft from the tip back to the flange: everything of the drill that goes near the patient.
+  control.limits.drill_shaft_length_mm =
+      options.drill_shaft_length_mm >= 0.0 ? options.drill_shaft_length_mm : setup.flange_T_tip.translation().norm();
   control_ = std::make_unique<robot::ControlLoop>(std::make_shared<MotionCountingArm>(arm_, arm_motion_accepted_),
                                                   kinematics_, setup, control);
   figures_.robot = sim_arm_ ? "simulated" : "ur";
@@ -197,12 +202,27 @@ bool NavigationRobot::trackingGood(const TrackingFeed& feed, double now_s) const
          now_s - feed.tool_time_s <= max_age_s_ && now_s - feed.patient_time_s <= max_age_s_;
 }
 
+void NavigationRobot::setSoftTissue(std::shared_ptr<const robot::SoftTissueSurface> surface, double arrived_s) {
+  std::lock_guard lock(tissue_mutex_);
+  pending_tissue_.emplace(std::move(surface), arrived_s);
+}
+
 void NavigationRobot::controlThread() {
   cycle_starts_.assign(kCycleRing, std::numeric_limits<double>::quiet_NaN());
   arm_origin_s_ = clock_();
   control_->runRealTime(
       [this] {
         cycle_start_s_ = clock_();
+        {
+          std::lock_guard lock(tissue_mutex_);
+          if (pending_tissue_) {
+            control_->setSoftTissue(std::move(pending_tissue_->first));
+            const double installed_ms = 1e3 * (cycle_start_s_ - pending_tissue_->second);
+            pending_tissue_.reset();
+            std::lock_guard status_lock(status_mutex_);
+            figures_.us_frame_to_margin_ms = installed_ms;
+          }
+        }
         {
           std::lock_guard lock(feed_mutex_);
           cycle_feed_ = feed_;
@@ -465,6 +485,8 @@ void NavigationRobot::fillStatus(NavigationStatus& s) const {
   s.stop_latency_ms = f.stop_latency_ms;
   s.time_to_stop_s = f.time_to_stop_s;
   s.stop_time_limit_s = f.stop_time_limit_s;
+  // The frame's margin is in force from the cycle that installed it.
+  if (std::isfinite(f.us_frame_to_margin_ms)) s.us_frame_to_margin_ms = f.us_frame_to_margin_ms;
 }
 
 std::vector<NavigationRobotTransition> NavigationRobot::transitions() const {

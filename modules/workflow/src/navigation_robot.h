@@ -75,6 +75,9 @@ class NavigationRobot {
   /// is not commanded and the automatic start is held until rearm(). False with `why` when the control
   /// loop does not answer.
   bool operatorStop(std::string& why);
+  /// Any thread: the soft tissue the supervisor checks from the next control cycle on (the frame that gave it
+  /// arrived at arrived_s on the loop clock).
+  void setSoftTissue(std::shared_ptr<const robot::SoftTissueSurface> surface, double arrived_s);
   /// Ends the control thread, leaving the arm stopping. Idempotent.
   void stop();
 
@@ -117,6 +120,9 @@ class NavigationRobot {
   mutable std::mutex feed_mutex_;  // guards feed_, loss_onset_s_
   TrackingFeed feed_;
   double loss_onset_s_ = std::numeric_limits<double>::quiet_NaN();
+
+  std::mutex tissue_mutex_;  // guards pending_tissue_
+  std::optional<std::pair<std::shared_ptr<const robot::SoftTissueSurface>, double>> pending_tissue_;
 
   std::mutex request_mutex_;
   std::deque<std::packaged_task<bool(robot::ControlLoop&)>> requests_;

@@ -15,6 +15,7 @@
 #include "mrsns/workflow/navigation.h"
 #include "step_internal.h"
 #include "step_navigation_robot.h"
+#include "step_navigation_soft_tissue.h"
 
 namespace mrsns::workflow::detail {
 
@@ -193,7 +194,8 @@ StepResult runConnectDevices(Session& session, const Json& params, const StepCon
 
 StepResult runNavigation(Session& session, const Json& params, const StepContext& context) {
   const Params p("navigation", params,
-                 {MRSNS_DEVICE_KEYS, MRSNS_NAVIGATION_ROBOT_KEYS, "duration_s", "record", "deformation_cases",
+                 {MRSNS_DEVICE_KEYS, MRSNS_NAVIGATION_ROBOT_KEYS, MRSNS_NAVIGATION_SOFT_TISSUE_KEYS, "duration_s", "record",
+                  "deformation_cases",
                   "deformation_frames", "stream_holograms", "hmd_client"});
   NavigationOptions options;
   options.devices = deviceOptions(p);
@@ -222,6 +224,8 @@ StepResult runNavigation(Session& session, const Json& params, const StepContext
   // With a plan in the session the loop drives the simulated robot along it: a tracker loss then stops
   // the arm through its safety supervisor.
   configureNavigationRobot(session, p, options);
+  // The soft tissue followed on the source's live ultrasound, and watched by the supervisor.
+  configureNavigationSoftTissue(session, p, options);
 
   NavigationLoop loop(options);
   bool robot_stopped = false;
@@ -247,10 +251,22 @@ StepResult runNavigation(Session& session, const Json& params, const StepContext
   }
   checkCancel(context);
 
-  // Deformation tracking (paper 001 §III.A): the posterior shape model on the
-  // simulated vessel protocol, the figures of Table I.
+  std::filesystem::path soft_tissue_file;
+  if (!options.recording.empty()) {
+    soft_tissue_file = options.recording.parent_path() / (options.recording.stem().string() + "_soft_tissue.json");
+  } else {
+    soft_tissue_file = session.resolve("navigation/soft_tissue.json");
+  }
+  const Json soft_tissue = navigationSoftTissueFigures(session, options, loop, soft_tissue_file);
+  if (soft_tissue.contains("file")) outputs.push_back(soft_tissue["file"].get<std::string>());
+  for (const auto& e : loop.events()) {
+    if (e.kind == "soft-tissue-refused") session.log("warn", "navigation: soft tissue refused: " + e.message);
+  }
+
+  // The deformation module's own trial on the simulated vessel protocol (paper 001 §III.A, Table I), in
+  // process, only when asked for (deformation_cases > 0): the live soft tissue above is what navigation uses.
   Json deformation = Json::object();
-  const int cases = p.integer("deformation_cases", 2);
+  const int cases = p.integer("deformation_cases", 0);
   if (cases > 0) {
     context.report(0.65, "deformation tracking (posterior shape model)");
     deformation::DeformationTrialOptions trial;
@@ -289,7 +305,12 @@ StepResult runNavigation(Session& session, const Json& params, const StepContext
   StepResult result;
   result.ok = st.batches > 0 && st.recorder_error.empty();
   result.outputs = outputs;
+  const std::string identity = loop.deviceIdentity();
   result.figures = {{"batches", st.batches},
+                    // Provenance (as connect-devices): the in-process simulator, or the simulated operating room
+                    // saying what it is; `mrsns-sim score` judges only what came from the room.
+                    {"device_identity", identity},
+                    {"simulated", options.devices.source == "simulated" || identity.rfind("mrsns-sim", 0) == 0},
                     {"frames_recorded", st.frames_recorded},
                     {"frames_in_file", recorded_frames},
                     {"video_frames_recorded", st.video_frames_recorded},
@@ -299,6 +320,7 @@ StepResult runNavigation(Session& session, const Json& params, const StepContext
                     {"robot_stopped", robot_stopped},
                     {"stop_reason", stop_reason},
                     {"events", events},
+                    {"soft_tissue", soft_tissue},
                     {"deformation", deformation}};
   addLatencySeries(loop.latencySeries(), result.figures);
   if (options.robot.robot != "none") {
@@ -313,6 +335,10 @@ StepResult runNavigation(Session& session, const Json& params, const StepContext
   if (robot_stopped) s << "; robot stopped (" << stop_reason << ")";
   if (robot_stopped && std::isfinite(st.time_to_stop_s)) {
     s << " " << st.stop_latency_ms << " ms after the loss, at rest " << st.time_to_stop_s << " s later";
+  }
+  if (st.soft_tissue != "off") {
+    s << "; soft tissue " << st.soft_tissue << " (" << st.soft_tissue_updates << " posterior updates from "
+      << st.us_frames_used << " of " << st.us_frames_received << " frames)";
   }
   if (!deformation.empty()) s << "; posterior E^SD " << deformation["posterior_sd_mean_mm"].get<double>() << " mm";
   if (st.video_frames_recorded > 0) s << "; " << st.video_frames_recorded << " ultrasound frames recorded";

@@ -323,6 +323,10 @@ StepResult runUsSpatialCalibration(Session& session, const Json& params, const S
       {"calibration", errorFigures(r.calibration)},
       {"validation", errorFigures(run.validation_errors)},
       {"pixel_spacing_mm", {r.pixel_spacing_mm.x(), r.pixel_spacing_mm.y()}},
+      // The frames this calibration holds for: navigation refuses frames of another size (another probe or depth).
+      {"image_size_px", {in.calibration.geometry.size[0], in.calibration.geometry.size[1]}},
+      // The tracked probe (ProbeToReference in the sweep): navigation refuses a source whose probe is another.
+      {"probe_tool", "Probe"},
       {"frames_used", r.frames_used},
       {"frames_rejected", r.rejected_frames.size()},
       {"segmented_frames", run.calibration.segmented_frames},

@@ -19,6 +19,8 @@
 #include <thread>
 #include <vector>
 
+#include "mrsns/core/mesh.h"
+#include "mrsns/core/plane_intersection.h"
 #include "mrsns/core/transform_repository.h"
 #include "mrsns/registration/screw_path.h"
 #include "mrsns/tracking/hologram_streamer.h"
@@ -31,6 +33,7 @@ class Server;
 namespace mrsns::workflow {
 
 namespace detail {
+class LiveSoftTissue;
 class NavigationRobot;
 class VideoRecorder;
 class TrackingRecorder;
@@ -118,6 +121,53 @@ struct NavigationRobotOptions {
   /// simulated drill of the robot module's test scene.
   std::optional<Eigen::Isometry3d> flange_T_marker;
   std::optional<Eigen::Isometry3d> flange_T_tip;
+  /// The drill (tip and shaft) keeps this far from the soft tissue (NavigationOptions::soft_tissue), plus
+  /// soft_tissue_margin_sd standard deviations of the posterior surface where it is nearest.
+  double soft_tissue_margin_mm = 2.0;
+  double soft_tissue_margin_sd = 2.0;
+  /// The shaft checked behind the tip; negative: from the tip back to the flange (|flange_T_tip|).
+  double drill_shaft_length_mm = -1.0;
+};
+
+/// The soft tissue followed on the source's live ultrasound (paper 001 Algorithm 1): every frame the source
+/// delivers is placed in the CT by Eq. 4 (CT <- patient <- tracker <- probe at the frame's time, with the
+/// temporal calibration, <- image by the spatial calibration), its lumen segmented from the current shape's
+/// contours, and the posterior shape model updated. The posterior near the planned paths, with its standard
+/// deviation, is what the robot's supervisor keeps the drill away from. Off while shape_model is empty.
+/// Nothing here throws once navigation runs: a frame, a calibration or a model that does not fit is refused
+/// with a message (NavigationStatus::soft_tissue) and navigation goes on without the deformation.
+struct SoftTissueOptions {
+  std::filesystem::path shape_model;  ///< statismo .h5 (the session's soft-tissue model)
+  Eigen::Isometry3d ct_T_model = Eigen::Isometry3d::Identity();
+  /// The CT's extent (CT frame, mm): a model whose mean shape lies mostly outside it is in another frame
+  /// and is refused. Unset: not checked.
+  std::optional<Eigen::AlignedBox3d> ct_bounds;
+  /// The registration CT -> patient reference (CTToPatient).
+  Eigen::Isometry3d patient_T_ct = Eigen::Isometry3d::Identity();
+  std::string patient_transform = "PatientToTracker";
+  std::string probe_transform = "ProbeToTracker";
+  /// ImageToProbe of the spatial calibration: pixel (i, j, 0, 1) -> probe mm (the pixel spacing included).
+  Eigen::Matrix4d probe_T_pixel = Eigen::Matrix4d::Identity();
+  /// The calibration's frame size: frames of another size are refused (0: not checked).
+  int image_width = 0;
+  int image_height = 0;
+  /// The probe the calibration was made with (its transform name); a source whose probe is named otherwise
+  /// is refused. Empty: not checked.
+  std::string calibrated_probe;
+  /// PLUS's TrackerLagSec (the temporal calibration): the tracker stamps the instant a frame shows at the
+  /// frame's time + lag.
+  double tracker_lag_s = 0.0;
+  /// Observation noise sigma of the posterior (mm): segmentation, calibration and tracking together.
+  double observation_sd_mm = 1.0;
+  /// Observations not renewed within this many frames are forgotten (ShapeTrackerOptions::
+  /// max_observation_age_frames): the tissue moves while it is imaged. 0 keeps them all (the paper).
+  int observation_lifetime_frames = 20;
+  /// Vertices within this distance (of the prior mean) of a planned path are handed to the supervisor.
+  double supervisor_radius_mm = 40.0;
+  /// The hologram stream's model showing the soft tissue (the shape model's mean, the same vertices in the
+  /// same order, CT frame): its vertices are moved on the headsets (NDARRAY vertex updates, at most 5 a
+  /// second). Empty: the headsets see the mean.
+  std::string hologram_model;
 };
 
 /// Where the simulated cart is wheeled (tracker_T_robot_base, i.e. RobotBaseToTracker): the planned entry
@@ -138,6 +188,7 @@ struct NavigationRobotTransition {
 struct NavigationOptions {
   DeviceOptions devices;
   NavigationRobotOptions robot;
+  SoftTissueOptions soft_tissue;
   /// Tracking stream recording (.mhd + .raw, crash-safe); empty: none.
   std::filesystem::path recording;
   /// The ultrasound video the source delivers (PlusServer IMAGE messages, a playback with images), recorded
@@ -168,6 +219,25 @@ struct NavigationOptions {
   double scene_rate_hz = 30.0;
 };
 
+/// The posterior at one frame, for the record (scored from outside against the truth).
+struct SoftTissueSample {
+  double timestamp = 0.0;  ///< the frame's time (the source's clock)
+  Eigen::VectorXd coefficients;
+  int observations = 0;
+  int contours = 0;
+  /// The frame's arrival from the source -> this posterior's surface handed to the supervisor (or, without a
+  /// robot, the posterior updated); the control loop installs it at its next cycle.
+  double frame_to_margin_ms = 0.0;
+};
+
+/// The last frame used, for display: its pixels, where it lies and the lumens found in it.
+struct LiveUltrasoundFrame {
+  tracking::TrackedImage image;
+  Eigen::Matrix4d ct_T_pixel = Eigen::Matrix4d::Identity();
+  std::vector<Polyline3d> lumens_ct;  ///< segmentation outlines, CT mm
+  std::uint64_t index = 0;            ///< 1, 2, ... (0: none yet)
+};
+
 /// One processed tracking batch: when it arrived (loop clock) and how long recording, supervising and
 /// streaming it took.
 struct NavigationLatencySample {
@@ -189,6 +259,7 @@ struct NavigationStatus {
   std::uint64_t scene_updates = 0;
   std::uint64_t deformation_updates = 0;
   std::uint64_t hologram_updates = 0;
+  std::uint64_t hologram_vertex_updates = 0;  ///< the soft tissue's vertices sent to the headsets (live soft tissue)
   std::uint16_t hologram_port = 0;   ///< 0: not streaming
   std::size_t hologram_clients = 0;  ///< clients that have the models and get the transforms
   bool operator_stopped = false;     ///< the last stop was the operator's (stopRobot), navigation goes on
@@ -201,6 +272,19 @@ struct NavigationStatus {
   std::uint64_t video_frames_synced = 0;
   std::uint64_t video_frames_dropped = 0;
   std::string video_error;
+  /// The live soft tissue (NavigationOptions::soft_tissue): "off", "waiting for frames", "tracking", or
+  /// "refused: <why>" (navigation goes on without the deformation).
+  std::string soft_tissue = "off";
+  std::uint64_t us_frames_received = 0;
+  std::uint64_t us_frames_used = 0;     ///< segmented and given to the posterior
+  std::uint64_t us_frames_skipped = 0;  ///< a newer frame came before this one was processed
+  std::uint64_t us_frames_refused = 0;  ///< wrong size or format, no probe pose at the frame's time
+  std::uint64_t us_frames_off_tissue = 0;  ///< the image plane does not cut the soft tissue
+  std::uint64_t soft_tissue_updates = 0;   ///< posterior updates handed to the supervisor
+  int soft_tissue_observations = 0;
+  double soft_tissue_sd_max_mm = std::numeric_limits<double>::quiet_NaN();  ///< near the planned paths
+  /// Frame arrival -> the supervisor's margin updated (or, without a robot, the posterior updated), last frame.
+  double us_frame_to_margin_ms = std::numeric_limits<double>::quiet_NaN();
   tracking::SourceStatus source;
   double max_batch_gap_s = 0.0;
   double mean_loop_latency_ms = 0.0;  ///< batch arrival -> processed (record, supervise, stream)
@@ -285,6 +369,13 @@ class NavigationLoop {
   [[nodiscard]] std::vector<NavigationLatencySample> latencySeries() const;
   /// The supervisor's transition log (empty without a robot).
   [[nodiscard]] std::vector<NavigationRobotTransition> robotTransitions() const;
+  /// The live soft tissue (NavigationOptions::soft_tissue): the posterior after every update, the last frame
+  /// used with its segmentation, and the posterior mean mesh in the CT frame (null when off or refused).
+  [[nodiscard]] std::vector<SoftTissueSample> softTissueSeries() const;
+  /// What the source's device says it is (mrsns-sim answers a STATUS request; PlusServer says nothing).
+  [[nodiscard]] std::string deviceIdentity() const;
+  [[nodiscard]] std::optional<LiveUltrasoundFrame> liveUltrasound() const;
+  [[nodiscard]] std::shared_ptr<const TriangleMesh> softTissueMesh() const;
 
  private:
   void run();
@@ -308,6 +399,9 @@ class NavigationLoop {
   StopHandler stop_handler_;
   std::vector<TransformRepository::Query> required_;
   std::unique_ptr<detail::NavigationRobot> robot_;
+  std::unique_ptr<detail::LiveSoftTissue> soft_tissue_;
+  std::atomic<std::uint64_t> hologram_vertex_updates_{0};
+  std::atomic<bool> hologram_vertex_error_{false};
   TransformRepository::Query robot_tool_, robot_patient_;
   std::size_t robot_transitions_seen_ = 0;
   // Safety stops reported so far (guarded by mutex_): rearm() clears the stop
