@@ -48,6 +48,16 @@ std::vector<tracking::HologramModel> MainWindow::hologramModels() const {
   return models;
 }
 
+std::string MainWindow::hologramDeviceName(const std::string& scene_name) const {
+  std::set<std::string> used;
+  for (const auto& [name, mesh] : meshes_) {
+    if (mesh.empty()) continue;
+    std::string device = deviceName(name, used);
+    if (name == scene_name) return device;
+  }
+  return {};
+}
+
 bool MainWindow::startHologramStream(int port, const std::string& client) {
   stopHologramStream();
   hologram_client_ = client;

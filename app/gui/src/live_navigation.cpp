@@ -3,6 +3,7 @@
 #include <QStringList>
 #include <QTimer>
 #include <cmath>
+#include <cstring>
 
 #include "display_area.h"
 #include "function_panel.h"
@@ -101,7 +102,9 @@ void LiveNavigation::start(const LiveNavigationSetup& setup) {
   deformation_time_s_.clear();
   deformation_mm_.clear();
   deformation_prior_mm_ = std::numeric_limits<double>::quiet_NaN();
-  if (setup.track_deformation) {
+  shown_frame_ = 0;
+  shown_mesh_.reset();
+  if (setup.track_deformation && setup.options.soft_tissue.shape_model.empty()) {
     LiveDeformationOptions deformation_options;
     deformation_options.seed = setup.options.devices.seed;
     // At the tracker's rate, one ultrasound frame about every 50 ms.
@@ -162,7 +165,45 @@ void LiveNavigation::moveTools() {
   }
 }
 
+bool LiveNavigation::showLiveSoftTissue() {
+  if (setup_.options.soft_tissue.shape_model.empty()) return false;
+  auto& scene = display_->scene();
+  const bool layer_on = function_->layerVisible(DisplayLayer::Ultrasound);
+  const auto frame = loop_->liveUltrasound();
+  if (frame && frame->index != shown_frame_) {
+    shown_frame_ = frame->index;
+    const auto& g = frame->image.geometry;
+    ImageVolume image;
+    image.size = {static_cast<int>(g.size[0]), static_cast<int>(g.size[1]), 1};
+    image.pixel_type = PixelType::UInt8;
+    image.data.resize(frame->image.pixels.size());
+    std::memcpy(image.data.data(), frame->image.pixels.data(), frame->image.pixels.size());
+    try {
+      // The scene's world is the CT; the frame was placed there by Eq. 4 with the session's calibrations.
+      scene.setUltrasoundSlice(kUltrasoundObject, image, frame->ct_T_pixel);
+      scene.setPolylines(kUltrasoundOutlineObject, frame->lumens_ct, Eigen::Vector3d(0.2, 1.0, 0.4));
+    } catch (const mrsns::Error& e) {
+      logger()->warn("live ultrasound frame not shown: {}", e.what());
+    }
+  }
+  for (const char* name : {kUltrasoundObject, kUltrasoundOutlineObject}) {
+    if (scene.contains(name)) scene.setVisible(name, frame.has_value() && layer_on);
+  }
+  // The posterior mean (refreshed by the loop at most every 0.2 s): the soft-tissue model's vertices moved.
+  if (auto mesh = loop_->softTissueMesh(); mesh && mesh != shown_mesh_ && !setup_.soft_tissue_object.empty() &&
+                                           scene.contains(setup_.soft_tissue_object)) {
+    shown_mesh_ = mesh;
+    try {
+      scene.updateMeshVertices(setup_.soft_tissue_object, mesh->vertices);
+    } catch (const mrsns::Error& e) {
+      logger()->warn("soft-tissue model not updated: {}", e.what());  // a model of another topology is shown
+    }
+  }
+  return true;
+}
+
 void LiveNavigation::showUltrasound() {
+  if (showLiveSoftTissue()) return;
   if (!deformation_) return;
   auto& scene = display_->scene();
   ImageVolume image;
@@ -243,15 +284,23 @@ void LiveNavigation::poll() {
                                                  .arg(QString::fromStdString(st.supervisor_state),
                                                       QString::fromStdString(st.guidance_phase).toLower())
                                                  .arg(st.depth_mm, 0, 'f', 1);
+  const QString tissue =
+      st.soft_tissue == "off"
+          ? QString()
+          : tr(" · soft tissue %1 (%2 updates from %3 of %4 frames)")
+                .arg(QString::fromStdString(st.soft_tissue))
+                .arg(st.soft_tissue_updates)
+                .arg(st.us_frames_used)
+                .arg(st.us_frames_received);
   output_->setNavigationStatus(
-      tr("navigating %1 s · %2 batches · %3 frames recorded · tracker %4%5%6")
+      tr("navigating %1 s · %2 batches · %3 frames recorded · tracker %4%5%6%7")
           .arg(t, 0, 'f', 1)
           .arg(st.batches)
           .arg(st.frames_recorded)
           .arg(QString::fromUtf8(tracking::toString(st.source.state).data()))
           .arg(st.recorder_error.empty() ? QString()
                                          : tr(" · recording failed: %1").arg(QString::fromStdString(st.recorder_error)))
-          .arg(robot));
+          .arg(robot, tissue));
 
   if (st.hologram_port != 0) {
     function_->setStreaming(
@@ -354,6 +403,16 @@ nlohmann::json LiveNavigation::stop() {
                         {"motion_commands_after_stop", st.motion_commands_after_stop},
                         {"robot_missed_cycles", st.robot_missed_cycles}};
   }
+  if (st.soft_tissue != "off") {
+    figures["soft_tissue"] = {{"state", st.soft_tissue},
+                              {"frames_received", st.us_frames_received},
+                              {"frames_used", st.us_frames_used},
+                              {"frames_skipped", st.us_frames_skipped},
+                              {"frames_refused", st.us_frames_refused},
+                              {"updates", st.soft_tissue_updates},
+                              {"sd_max_near_path_mm", finiteOrNull(st.soft_tissue_sd_max_mm)},
+                              {"frame_to_margin_ms", finiteOrNull(st.us_frame_to_margin_ms)}};
+  }
   if (locator_) {
     figures["distance_target"] = setup_.distance_target_name;
     figures["tip_to_tissue_mm"] = tissue_mm_;
@@ -375,6 +434,7 @@ nlohmann::json LiveNavigation::stop() {
   auto& scene = display_->scene();
   for (const auto& tool : kTools) scene.remove(tool.object);
   scene.remove(kUltrasoundObject);
+  scene.remove(kUltrasoundOutlineObject);
   display_->renderScene();
   logger()->info("live navigation stopped: {} batches, {} frames recorded", st.batches, st.frames_recorded);
   return figures;

@@ -43,8 +43,13 @@ struct LiveNavigationSetup {
   TriangleMesh distance_target;
   std::string distance_target_name;
   /// Track the soft tissue (simulated carotid sweep, LiveDeformation) from
-  /// the loop's deformation hook.
+  /// the loop's deformation hook: the simulated tracker only. With the live
+  /// soft tissue (options.soft_tissue.shape_model set) the source's own
+  /// ultrasound is shown and followed instead.
   bool track_deformation = true;
+  /// The scene mesh whose vertices the live posterior moves (the shape
+  /// model's mean model); none when empty.
+  std::string soft_tissue_object;
   /// How often the GUI polls the loop and redraws the view.
   int poll_interval_ms = 50;
 };
@@ -55,6 +60,8 @@ inline constexpr const char* kProbeObject = "tool:Probe";
 inline constexpr const char* kFlangeObject = "tool:Flange";
 /// The live ultrasound frame, at the tracked probe.
 inline constexpr const char* kUltrasoundObject = "us:live";
+/// The lumens segmented in it (live soft tissue).
+inline constexpr const char* kUltrasoundOutlineObject = "us:live-outline";
 /// The simulated robot's drill marker (NavigationOptions::robot "simulated").
 inline constexpr const char* kDrillObject = "tool:Drill";
 
@@ -100,6 +107,8 @@ class LiveNavigation : public QObject {
   void poll();
   void moveTools();
   void showUltrasound();
+  /// The source's frame, its outline and the posterior mesh (live soft tissue); false when it is off.
+  bool showLiveSoftTissue();
 
   DisplayArea* display_;
   OutputPanel* output_;
@@ -123,6 +132,8 @@ class LiveNavigation : public QObject {
   std::vector<double> tissue_time_s_, tissue_mm_;
   std::vector<double> deformation_time_s_, deformation_mm_;
   double deformation_prior_mm_ = std::numeric_limits<double>::quiet_NaN();
+  std::uint64_t shown_frame_ = 0;
+  std::shared_ptr<const TriangleMesh> shown_mesh_;
 };
 
 /// CT_T_patient from the session's latest successful registration (CTToPatient, inverted); none without one.

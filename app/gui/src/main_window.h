@@ -255,6 +255,8 @@ class MainWindow : public QMainWindow {
   bool startWindowStream(int port);
   void stopWindowStream();
   [[nodiscard]] std::vector<tracking::HologramModel> hologramModels() const;
+  /// The device name hologramModels() gives the scene mesh `scene_name` (empty when it is not streamed).
+  [[nodiscard]] std::string hologramDeviceName(const std::string& scene_name) const;
 };
 
 /// The style sheet of the workstation (dark, high contrast read-outs).

@@ -8,7 +8,9 @@
 #include "live_navigation.h"
 #include "main_window.h"
 #include "mrsns/core/error.h"
+#include "mrsns/core/log.h"
 #include "mrsns/workflow/navigation.h"
+#include "mrsns/workflow/navigation_soft_tissue.h"
 #include "mrsns/workflow/session.h"
 #include "output_panel.h"
 #include "session_import.h"
@@ -52,6 +54,19 @@ bool MainWindow::startNavigation(workflow::NavigationOptions options) {
       if (ct_T_patient) options.robot.patient_T_plan = ct_T_patient->inverse();
     }
   }
+  // The source's own ultrasound updates the soft tissue when the session has what places and explains it (the
+  // simulated tracker has no ultrasound: its sweep is simulated in the GUI).
+  std::vector<std::string> soft_tissue_missing;
+  if (options.devices.source != "simulated" && options.soft_tissue.shape_model.empty()) {
+    soft_tissue_missing = workflow::applySessionSoftTissue(*session_, options);
+    if (const auto shape = session_->shapeModel(); shape && soft_tissue_missing.empty()) {
+      if (const auto mean = session_->model(shape->mean_model)) {
+        setup.soft_tissue_object = sceneName(*mean);
+        // The headsets see the posterior too: the mean model's vertices moved in the hologram stream.
+        options.soft_tissue.hologram_model = hologramDeviceName(setup.soft_tissue_object);
+      }
+    }
+  }
   setup.options = options;
   try {
     std::filesystem::create_directories(session_->resolve("navigation"));
@@ -78,6 +93,11 @@ bool MainWindow::startNavigation(workflow::NavigationOptions options) {
       setup.options.stream_holograms = false;  // started below, once the loop runs
     }
     live_->start(setup);
+    if (!soft_tissue_missing.empty() && session_->shapeModel()) {
+      std::string text;
+      for (const auto& m : soft_tissue_missing) text += (text.empty() ? "" : "; ") + m;
+      logger()->warn("navigation without the live soft tissue: it needs {}", text);
+    }
     live_recording_ = name;
     if (hologram_port_ != 0) {
       try {
