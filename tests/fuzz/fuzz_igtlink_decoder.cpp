@@ -1,6 +1,6 @@
 // libFuzzer target: the OpenIGTLink decoder (header v1/v2, metadata, every
 // typed content) and the stream framer. Any input must either decode or throw
-// an mrsns::Error, never read out of bounds or allocate what a size field
+// an mrsns::Error (NDARRAY bodies too), never read out of bounds or allocate what a size field
 // merely claims; a decoded message must re-encode, and decode(encode(m))
 // must encode to the same bytes again.
 #include <cstdint>
@@ -11,6 +11,7 @@
 #include "mrsns/core/error.h"
 #include "mrsns/igtlink/codec.h"
 #include "mrsns/igtlink/framer.h"
+#include "mrsns/igtlink/ndarray.h"
 
 namespace {
 
@@ -24,6 +25,14 @@ DecodeOptions fuzzOptions() {
 }
 
 void checkReencoding(const Message& m) {
+  // NDARRAY (the hologram stream's vertex updates) travels as raw content: its own decoder, and its round trip.
+  if (const auto* raw = m.as<RawContent>(); raw && m.header.type == "NDARRAY") {
+    try {
+      const NdArrayFloat32 array = decodeNdArray(raw->bytes);
+      if (encodeNdArray(array) != raw->bytes) std::abort();
+    } catch (const mrsns::Error&) {
+    }
+  }
   const auto version = static_cast<HeaderVersion>(m.header.version);
   const auto first = encodeMessage(m, version);
   const Message again = decodeMessage(first, fuzzOptions());

@@ -7,16 +7,16 @@
 namespace mrsns::igtlink {
 
 namespace {
-constexpr std::size_t kNameSize = 20;
+constexpr std::size_t kToolNameSize = 20;
 constexpr std::size_t kCoordinateNameSize = 32;
 }  // namespace
 
 void encodeTrackingData(const TrackingDataContent& content, std::vector<std::uint8_t>& out) {
-  for (const auto& e : content.elements) checkFixedString(e.name, kNameSize, "TDATA element name");
+  for (const auto& e : content.elements) checkFixedString(e.name, kToolNameSize, "TDATA element name");
   out.reserve(out.size() + content.elements.size() * kTrackingElementSize);
   ByteWriter w(out);
   for (const auto& e : content.elements) {
-    w.fixedString(e.name, kNameSize);
+    w.fixedString(e.name, kToolNameSize);
     w.u8(e.type);
     w.u8(0);  // reserved
     appendMatrix3x4(e.matrix, out);
@@ -32,7 +32,7 @@ TrackingDataContent decodeTrackingData(std::span<const std::uint8_t> content) {
   out.elements.reserve(content.size() / kTrackingElementSize);
   while (!r.atEnd()) {
     TrackingElement e;
-    e.name = r.fixedString(kNameSize, "name");
+    e.name = r.fixedString(kToolNameSize, "name");
     e.type = r.u8("type");
     r.u8("reserved");
     e.matrix = readMatrix3x4(r, "matrix");
