@@ -597,6 +597,10 @@ struct OperatingRoom::Impl {
       }
       offset += span / speed + 1.0 / 30.0;
     } while (scenario.replay->loop && running.load());
+    // The last frames may still be queued for a client that a loaded machine keeps waiting: `mrsns-sim run`
+    // stops the room once it is finished, and a stop drops what is not written (a full-suite run lost the
+    // replay's last frame so). Bounded: a client that reads nothing does not hold the room open.
+    plus->waitUntilSent(5.0);
     finished = true;
   }
 };

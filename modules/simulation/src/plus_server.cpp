@@ -3,9 +3,11 @@
 // version and queued per client.
 #include "mrsns/simulation/plus_server.h"
 
+#include <chrono>
 #include <map>
 #include <mutex>
 #include <optional>
+#include <thread>
 
 #include "mrsns/core/error.h"
 #include "mrsns/igtlink/codec.h"
@@ -220,6 +222,18 @@ void PlusServerEmulator::publishImage(const BModeFrame& frame, double timestamp_
     Bytes& bytes = is_v2 ? v2 : v1;
     if (!bytes) bytes = encode(m, is_v2 ? igtlink::HeaderVersion::kV2 : igtlink::HeaderVersion::kV1);
     if (impl_->server->sendEncoded(id, bytes, igtlink::Channel::Stream)) ++impl_->stats.image_messages;
+  }
+}
+
+bool PlusServerEmulator::waitUntilSent(double timeout_s) const {
+  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+  while (true) {
+    {
+      std::lock_guard lock(impl_->mutex);
+      if (!impl_->server || impl_->server->queuedMessages() == 0) return true;
+    }
+    if (std::chrono::steady_clock::now() > end) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
   }
 }
 

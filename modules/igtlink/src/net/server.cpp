@@ -427,6 +427,15 @@ bool Server::sendEncoded(ClientId client, std::shared_ptr<const std::vector<std:
   return true;
 }
 
+std::size_t Server::queuedMessages() const {
+  std::size_t n = 0;
+  for (const auto& session : impl_->snapshot()) {
+    std::lock_guard lock(session->queue_mutex);
+    if (!session->closed) n += session->queue.size();
+  }
+  return n;
+}
+
 ServerStats Server::stats() const {
   ServerStats s;
   {

@@ -107,6 +107,9 @@ class Server {
   bool sendEncoded(ClientId client, std::shared_ptr<const std::vector<std::uint8_t>> bytes, Channel channel);
 
   [[nodiscard]] ServerStats stats() const;
+  /// Messages queued for the clients and not yet written to their sockets (the one being written included):
+  /// 0 once everything sent so far is in the kernel's hands.
+  [[nodiscard]] std::size_t queuedMessages() const;
 
  private:
   struct Impl;

@@ -76,6 +76,10 @@ class PlusServerEmulator {
   void publishImage(const BModeFrame& frame, double timestamp_utc);
 
   [[nodiscard]] PlusServerStats stats() const;
+  /// Waits until every message published so far is written to its client's socket, at most `timeout_s`;
+  /// false on timeout. A replay that ends calls it before the room stops, so its last frame is not lost with
+  /// the connection.
+  bool waitUntilSent(double timeout_s) const;
 
  private:
   struct Impl;
