@@ -10,16 +10,7 @@
 
 namespace mrsns::workflow {
 namespace {
-
 using Json = nlohmann::json;
-
-double stepFigure(const Session& session, const std::string& step, const std::string& key, double fallback) {
-  const Json record = session.step(step);
-  if (!record.is_object() || record.value("status", "") != "ok" || !record.contains("figures")) return fallback;
-  const Json& f = record["figures"];
-  return f.contains(key) && f[key].is_number() ? f[key].get<double>() : fallback;
-}
-
 }  // namespace
 
 std::vector<std::string> applySessionSoftTissue(const Session& session, NavigationOptions& options) {
@@ -53,8 +44,9 @@ std::vector<std::string> applySessionSoftTissue(const Session& session, Navigati
     }
   }
   // The lag the spatial calibration was made with (its own estimate or the temporal calibration's).
-  st.tracker_lag_s = 1e-3 * stepFigure(session, "us-spatial-calibration", "tracker_lag_ms",
-                                       stepFigure(session, "us-temporal-calibration", "tracker_lag_ms", 0.0));
+  st.tracker_lag_s = 1e-3 * detail::recordedStepFigure(session, "us-spatial-calibration", "tracker_lag_ms")
+                                .value_or(detail::recordedStepFigure(session, "us-temporal-calibration", "tracker_lag_ms")
+                                              .value_or(0.0));
   return missing;
 }
 

@@ -3,6 +3,7 @@
 // unknown-key detection, cancellation, JSON helpers.
 #include <Eigen/Geometry>
 #include <initializer_list>
+#include <optional>
 #include <set>
 #include <string>
 
@@ -40,6 +41,9 @@ inline void checkCancel(const StepContext& context) {
 
 Json matrixJson(const Eigen::Matrix4d& m);
 Eigen::Matrix4d matrixFromJson(const Json& j, const std::string& what);
+/// The number `key` among the figures of `step`'s latest run when it succeeded (e.g. the temporal
+/// calibration's tracker_lag_ms), if any.
+std::optional<double> recordedStepFigure(const Session& session, const std::string& step, const std::string& key);
 /// The transform `name` ("ImageToProbe") recorded by an earlier step, if any.
 bool findRecordedTransform(const Session& session, const std::string& name, Eigen::Matrix4d& out);
 /// The first "<folder>/<stem><ext>", "<folder>/<stem>_2<ext>", ... not yet in the session: a repeated

@@ -297,13 +297,8 @@ StepResult runUsSpatialCalibration(Session& session, const Json& params, const S
   } else if (p.has("tracker_lag_ms")) {
     lag.lag_s = p.number("tracker_lag_ms", 0.0) * 1e-3;
   } else {
-    const auto temporal = session.step("us-temporal-calibration");
-    const Json* recorded = nullptr;
-    if (temporal.is_object() && temporal.value("status", "") == "ok" && temporal.contains("figures") &&
-        temporal["figures"].contains("tracker_lag_ms") && temporal["figures"]["tracker_lag_ms"].is_number()) {
-      recorded = &temporal["figures"]["tracker_lag_ms"];
-    }
-    lag.lag_s = recorded ? recorded->get<double>() * 1e-3 : 0.0;
+    const auto recorded = recordedStepFigure(session, "us-temporal-calibration", "tracker_lag_ms");
+    lag.lag_s = recorded ? *recorded * 1e-3 : 0.0;
     lag_source = recorded ? "us-temporal-calibration" : "none";
   }
   lag.check = !lag.estimate;

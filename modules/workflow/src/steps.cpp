@@ -275,6 +275,14 @@ Eigen::Matrix4d matrixFromJson(const Json& j, const std::string& what) {
   return m;
 }
 
+std::optional<double> recordedStepFigure(const Session& session, const std::string& step, const std::string& key) {
+  const Json record = session.step(step);
+  if (!record.is_object() || record.value("status", "") != "ok" || !record.contains("figures")) return std::nullopt;
+  const Json& f = record["figures"];
+  if (!f.is_object() || !f.contains(key) || !f[key].is_number()) return std::nullopt;
+  return f[key].get<double>();
+}
+
 bool findRecordedTransform(const Session& session, const std::string& name, Eigen::Matrix4d& out) {
   // The session's typed calibrations and registrations: the latest step that succeeded with it.
   const auto entry = session.transform(name);
