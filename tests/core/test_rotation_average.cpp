@@ -24,7 +24,7 @@ Eigen::Vector3d gaussian3(std::mt19937& rng, double sigma) {
   return {n(rng), n(rng), n(rng)};
 }
 
-Eigen::Matrix3d randomRotation(std::mt19937& rng) {
+Eigen::Matrix3d randomRotationGaussianAxis(std::mt19937& rng) {
   std::uniform_real_distribution<double> angle(0.0, kPi);
   return so3Exp(angle(rng) * gaussian3(rng, 1.0).normalized());
 }
@@ -55,7 +55,7 @@ TEST(RotationAverage, IdenticalRotationsAverageToThemselves) {
   const std::vector<Eigen::Matrix3d> specials = {Eigen::Matrix3d::Identity(), so3Exp(Eigen::Vector3d(1e-9, 0, 0)),
                                                  so3Exp((kPi - 1e-6) * Eigen::Vector3d(0, 0.6, 0.8)),
                                                  Eigen::Vector3d(1, -1, -1).asDiagonal().toDenseMatrix(),
-                                                 randomRotation(rng)};
+                                                 randomRotationGaussianAxis(rng)};
   for (const Eigen::Matrix3d& R : specials) {
     const std::vector<Eigen::Matrix3d> same(7, R);
     for (RotationMeanMethod m : kAllMethods) {
@@ -70,8 +70,8 @@ TEST(RotationAverage, IdenticalRotationsAverageToThemselves) {
 
 TEST(RotationAverage, MeanIsInvariantToLeftAndRightMultiplication) {
   std::mt19937 rng(12);
-  const std::vector<Eigen::Matrix3d> rotations = cluster(rng, randomRotation(rng), 0.3, 20);
-  for (const Eigen::Matrix3d& R0 : {randomRotation(rng), Eigen::Vector3d(-1, -1, 1).asDiagonal().toDenseMatrix(),
+  const std::vector<Eigen::Matrix3d> rotations = cluster(rng, randomRotationGaussianAxis(rng), 0.3, 20);
+  for (const Eigen::Matrix3d& R0 : {randomRotationGaussianAxis(rng), Eigen::Vector3d(-1, -1, 1).asDiagonal().toDenseMatrix(),
                                     so3Exp((kPi - 1e-6) * Eigen::Vector3d::UnitX())}) {
     std::vector<Eigen::Matrix3d> left;
     std::vector<Eigen::Matrix3d> right;
@@ -91,7 +91,7 @@ TEST(RotationAverage, MeanIsInvariantToLeftAndRightMultiplication) {
 TEST(RotationAverage, KarcherMeanZeroesTheTangentResidualSum) {
   // First-order optimality of Eq. 20: sum_i Log(Rbar^T R_i) = 0.
   std::mt19937 rng(13);
-  const std::vector<Eigen::Matrix3d> rotations = cluster(rng, randomRotation(rng), 0.5, 30);
+  const std::vector<Eigen::Matrix3d> rotations = cluster(rng, randomRotationGaussianAxis(rng), 0.5, 30);
   const RotationAverageResult r = averageRotations(rotations);
   ASSERT_TRUE(r.converged);
   Eigen::Vector3d sum = Eigen::Vector3d::Zero();
@@ -109,7 +109,7 @@ TEST(RotationAverage, KarcherMeanZeroesTheTangentResidualSum) {
 TEST(RotationAverage, TwoRotationsAverageToTheGeodesicMidpoint) {
   std::mt19937 rng(14);
   for (int i = 0; i < 20; ++i) {
-    const Eigen::Matrix3d a = randomRotation(rng);
+    const Eigen::Matrix3d a = randomRotationGaussianAxis(rng);
     const Eigen::Matrix3d b = a * so3Exp((kPi - 0.1) * gaussian3(rng, 1.0).normalized() * (i + 1) / 20.0);
     const Eigen::Matrix3d midpoint = slerp(a, b, 0.5);
     for (RotationMeanMethod m : {RotationMeanMethod::kRiemannianL2, RotationMeanMethod::kChordalL2}) {
@@ -128,7 +128,7 @@ TEST(RotationAverage, WeightsActLikeRepetitions) {
   EXPECT_LT(rotationAngleBetween(averageRotations(pair, {}, only_second).mean, pair[1]), 1e-12);
 
   std::mt19937 rng(15);
-  const std::vector<Eigen::Matrix3d> rotations = cluster(rng, randomRotation(rng), 0.4, 5);
+  const std::vector<Eigen::Matrix3d> rotations = cluster(rng, randomRotationGaussianAxis(rng), 0.4, 5);
   const std::vector<double> counts = {1, 2, 3, 1, 2};
   std::vector<Eigen::Matrix3d> repeated;
   for (std::size_t i = 0; i < rotations.size(); ++i) {
@@ -150,7 +150,7 @@ TEST(RotationAverage, L1MeanResistsAnOutlierThatDragsTheL2Mean) {
   const double sigma = 0.01;
   std::mt19937 rng(16);
   for (int trial = 0; trial < 10; ++trial) {
-    const Eigen::Matrix3d truth = randomRotation(rng);
+    const Eigen::Matrix3d truth = randomRotationGaussianAxis(rng);
     std::vector<Eigen::Matrix3d> rotations = cluster(rng, truth, sigma, 10);
     rotations.push_back(truth * so3Exp(1.5 * gaussian3(rng, 1.0).normalized()));
     const RotationAverageResult l1 = averageRotations(rotations, withMethod(RotationMeanMethod::kRiemannianL1));
@@ -169,7 +169,7 @@ TEST(RotationAverage, ChordalAndKarcherAgreeForConcentratedData) {
   // statistical error sigma / sqrt(n) of either.
   const double sigma = 0.05;
   std::mt19937 rng(17);
-  const Eigen::Matrix3d truth = randomRotation(rng);
+  const Eigen::Matrix3d truth = randomRotationGaussianAxis(rng);
   const std::vector<Eigen::Matrix3d> rotations = cluster(rng, truth, sigma, 20);
   const Eigen::Matrix3d karcher = averageRotations(rotations).mean;
   const Eigen::Matrix3d chordal = averageRotations(rotations, withMethod(RotationMeanMethod::kChordalL2)).mean;
@@ -190,7 +190,7 @@ TEST(RotationAverage, SpreadReportsResidualAngles) {
 
 TEST(RotationAverage, IterationLimitIsReportedAsNotConverged) {
   std::mt19937 rng(18);
-  const std::vector<Eigen::Matrix3d> rotations = cluster(rng, randomRotation(rng), 0.6, 10);
+  const std::vector<Eigen::Matrix3d> rotations = cluster(rng, randomRotationGaussianAxis(rng), 0.6, 10);
   RotationAverageOptions o;
   o.max_iterations = 1;
   const RotationAverageResult r = averageRotations(rotations, o);
@@ -202,7 +202,7 @@ TEST(RotationAverage, IterationLimitIsReportedAsNotConverged) {
 TEST(RotationAverage, PoseAverageOfFourViewsUsesMeanTranslation) {
   // Eq. 18-20: four calibrations (front, left, right, ground).
   std::mt19937 rng(19);
-  const Eigen::Matrix3d truth = randomRotation(rng);
+  const Eigen::Matrix3d truth = randomRotationGaussianAxis(rng);
   const std::vector<Eigen::Vector3d> translations = {{10, 0, 0}, {0, 10, 0}, {-10, 0, 0}, {0, -10, 4}};
   std::vector<Eigen::Isometry3d> poses;
   for (const Eigen::Vector3d& t : translations) {
