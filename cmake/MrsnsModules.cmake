@@ -33,6 +33,15 @@ function(mrsns_test_flags target)
   endif()
 endfunction()
 
+# The optimisation of code outside the numeric kernels (MRSNS_GLUE_OPTIMIZATION)
+# in Release builds; after the build type's -O3, so it wins.
+function(mrsns_glue_flags target)
+  if(NOT MRSNS_GLUE_OPTIMIZATION OR NOT CMAKE_CXX_COMPILER_ID MATCHES "GNU|Clang")
+    return()
+  endif()
+  target_compile_options(${target} PRIVATE $<$<CONFIG:Release>:${MRSNS_GLUE_OPTIMIZATION}>)
+endfunction()
+
 # mrsns_add_module(<name> [PUBLIC_DEPS ...] [PRIVATE_DEPS ...])
 #
 # Builds modules/<name>/src/*.cpp into the library mrsns_<name>, aliased
@@ -49,6 +58,9 @@ function(mrsns_add_module name)
   target_link_libraries(mrsns_${name} PUBLIC ${ARG_PUBLIC_DEPS} PRIVATE ${ARG_PRIVATE_DEPS} mrsns_warnings)
   set_target_properties(mrsns_${name} PROPERTIES POSITION_INDEPENDENT_CODE ON)
   mrsns_unity_exclusions(mrsns_${name})
+  if(NOT name IN_LIST MRSNS_KERNEL_MODULES)
+    mrsns_glue_flags(mrsns_${name})
+  endif()
   set_property(GLOBAL APPEND PROPERTY MRSNS_MODULES mrsns_${name})
 endfunction()
 

@@ -18,6 +18,8 @@ phase_end() { echo "== $PHASE_NAME: $(( $(date +%s) - PHASE_T0 )) s"; }
 
 # Configures (once) and builds the project in $MRSNS_BUILD_DIR. Arguments are
 # CMake cache settings applied before the build (bench.sh: the benchmarks).
+# MRSNS_BUILD_TARGET names one target to build instead of all (setup.sh:
+# mrsns_programs, the programs without the test suite).
 mrsns_build() {
   local werror=OFF
   [ "${CI:-}" = "true" ] && werror=ON
@@ -29,7 +31,9 @@ mrsns_build() {
   fi
   local before
   before=$(ccache_counts)
-  cmake --build "$MRSNS_BUILD_DIR" -j "$(nproc)"
+  local target=()
+  [ -n "${MRSNS_BUILD_TARGET:-}" ] && target=(--target "$MRSNS_BUILD_TARGET")
+  cmake --build "$MRSNS_BUILD_DIR" -j "$(nproc)" "${target[@]}"
   # Whether this build was cold (every compilation a cache miss) or warm,
   # so the build time printed by phase_end can be read.
   if [ -n "$before" ]; then

@@ -32,7 +32,8 @@ fi
 phase_end
 
 phase_start "build"
-mrsns_build
+# The programs only; scripts/test.sh builds the test programs on top.
+MRSNS_BUILD_TARGET=mrsns_programs mrsns_build
 phase_end
 
 [ "$run_demo" = 1 ] || exit 0

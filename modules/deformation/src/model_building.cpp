@@ -1,10 +1,10 @@
 #include "mrsns/deformation/model_building.h"
 
-#include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
 #include <limits>
 
+#include "mrsns/core/dense_solvers.h"
 #include "mrsns/core/error.h"
 #include "mrsns/core/log.h"
 #include "mrsns/deformation/shape_model_ops.h"
@@ -107,8 +107,8 @@ ShapeModelBuildResult buildShapeModelFromVectors(const TriangleMesh& reference, 
   const Eigen::MatrixXd centred = shapes.colwise() - mean;
   // Thin SVD of the 3N x m data matrix: U spans the shape space, s^2/(m-1) are
   // the sample variances. Cost O(N m^2), never forms the 3N x 3N covariance.
-  Eigen::BDCSVD<Eigen::MatrixXd> svd(centred, Eigen::ComputeThinU);
-  const Eigen::VectorXd s = svd.singularValues();
+  const ThinSvd svd = thinSvd(centred, SvdVectors::kU);
+  const Eigen::VectorXd& s = svd.singular_values;
   result.singular_values = s;
   const double denom = static_cast<double>(m - 1);
   const Eigen::VectorXd sample_var = s.array().square() / denom;
@@ -130,7 +130,7 @@ ShapeModelBuildResult buildShapeModelFromVectors(const TriangleMesh& reference, 
   model.reference.normals.resize(0, 3);
   model.reference.colors.resize(0, 3);
   model.mean = mean;
-  model.basis = svd.matrixU().leftCols(keep);
+  model.basis = svd.u.leftCols(keep);
   model.variances = (sample_var.head(keep).array() - options.noise_variance).matrix();
   model.noise_variance = options.noise_variance;
   result.retained_variance_fraction =

@@ -1,10 +1,10 @@
 #include "mrsns/hmd/cube_calibration.h"
 
 #include <Eigen/Eigenvalues>
-#include <Eigen/SVD>
 #include <cmath>
 #include <string>
 
+#include "mrsns/core/dense_solvers.h"
 #include "mrsns/core/error.h"
 #include "mrsns/registration/paired_point.h"
 
@@ -143,10 +143,9 @@ CubeCalibrationResult calibrateCube(std::span<const Eigen::Vector3d> fiducial_tr
       b(row) = t(r);
     }
   }
-  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(A, Eigen::ComputeThinU | Eigen::ComputeThinV);
-  const auto& sv = svd.singularValues();
+  Eigen::VectorXd sv;
+  const Eigen::VectorXd m = svdLeastSquares(A, b, &sv);
   result.dlt_condition_number = sv(sv.size() - 1) > 0.0 ? sv(0) / sv(sv.size() - 1) : INFINITY;
-  const Eigen::VectorXd m = svd.solve(b);
   Eigen::Matrix4d M = Eigen::Matrix4d::Identity();
   for (int r = 0; r < 3; ++r) M.block<1, 4>(r, 0) = m.segment<4>(4 * r).transpose();
   result.tracker_A_hololens = Nt.inverse() * M * Nh;

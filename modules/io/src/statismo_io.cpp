@@ -2,12 +2,12 @@
 
 #include <hdf5.h>
 
-#include <Eigen/SVD>
 #include <chrono>
 #include <cmath>
 #include <ctime>
 #include <vector>
 
+#include "mrsns/core/dense_solvers.h"
 #include "mrsns/core/error.h"
 
 namespace mrsns::io {
@@ -290,9 +290,9 @@ ShapeModel readStatismoModel(const std::filesystem::path& path, StatismoFileInfo
     const Eigen::MatrixXd gram = model.basis.transpose() * model.basis;
     if ((gram - Eigen::MatrixXd::Identity(modes, modes)).cwiseAbs().maxCoeff() > 1e-4) {
       const Eigen::MatrixXd scaled = model.basis * model.variances.cwiseMax(0.0).cwiseSqrt().asDiagonal();
-      Eigen::BDCSVD<Eigen::MatrixXd> svd(scaled, Eigen::ComputeThinU);
-      model.basis = svd.matrixU();
-      model.variances = svd.singularValues().array().square().matrix();
+      const ThinSvd svd = thinSvd(scaled, SvdVectors::kU);
+      model.basis = svd.u;
+      model.variances = svd.singular_values.array().square().matrix();
       hdr.basis_orthonormalized = true;
     }
   }

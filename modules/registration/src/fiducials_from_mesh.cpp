@@ -9,6 +9,7 @@
 #include <random>
 #include <sstream>
 
+#include "mrsns/core/dense_solvers.h"
 #include "mrsns/core/error.h"
 #include "mrsns/core/log.h"
 #include "mrsns/core/mesh_locator.h"
@@ -132,7 +133,7 @@ std::optional<Eigen::Vector3d> entryFromSurroundingSurface(const TriangleMesh& b
     a.row(static_cast<Eigen::Index>(i)) = rows[i].transpose();
     b(static_cast<Eigen::Index>(i)) = heights[i];
   }
-  const Eigen::VectorXd q = a.colPivHouseholderQr().solve(b);
+  const Eigen::VectorXd q = qrLeastSquares(a, b);
   // A surface that is not a single sheet around the screw (two cortices, a fold) fits badly: no estimate then.
   const double rms = std::sqrt((a * q - b).squaredNorm() / static_cast<double>(rows.size()));
   if (!std::isfinite(q(0)) || rms > 0.5 * options.ring_width_mm) return std::nullopt;

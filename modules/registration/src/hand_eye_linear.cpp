@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "hand_eye_internal.h"
+#include "mrsns/core/dense_solvers.h"
 #include "mrsns/core/error.h"
 #include "mrsns/core/rigid.h"
 
@@ -63,7 +64,7 @@ Eigen::Vector3d translationLeastSquares(const Poses& A, const Poses& B, const Ei
     C.middleRows<3>(3 * i) = a.linear() - Eigen::Matrix3d::Identity();
     d.segment<3>(3 * i) = R * b.translation() - a.translation();
   }
-  return C.colPivHouseholderQr().solve(d);
+  return qrLeastSquares(C, d);
 }
 
 Eigen::Isometry3d solveTsaiLenz(const Poses& A, const Poses& B) {
@@ -77,7 +78,7 @@ Eigen::Isometry3d solveTsaiLenz(const Poses& A, const Poses& B) {
     d.segment<3>(3 * i) = pb - pa;
   }
   // p' = tan(theta_X / 2) * axis_X; then back to the modified Rodrigues vector of X.
-  const Eigen::Vector3d p_prime = C.colPivHouseholderQr().solve(d);
+  const Eigen::Vector3d p_prime = qrLeastSquares(C, d);
   const Eigen::Vector3d p = 2.0 * p_prime / std::sqrt(1.0 + p_prime.squaredNorm());
   const double p2 = p.squaredNorm();
   const Eigen::Matrix3d R_raw = (1.0 - p2 / 2.0) * Eigen::Matrix3d::Identity() +
@@ -127,9 +128,10 @@ Eigen::Isometry3d solveDaniilidis(const Poses& A, const Poses& B, const Eigen::M
     S.block<4, 4>(8 * i + 4, 0) = Kd;
     S.block<4, 4>(8 * i + 4, 4) = K;
   }
-  Eigen::JacobiSVD<Eigen::MatrixXd> svd(S, Eigen::ComputeFullV);
-  const Eigen::VectorXd v7 = svd.matrixV().col(6);
-  const Eigen::VectorXd v8 = svd.matrixV().col(7);
+  // S has 8n >= 8 rows: its thin V is the full 8 x 8.
+  const ThinSvd svd = thinSvd(S, SvdVectors::kV);
+  const Eigen::VectorXd v7 = svd.v.col(6);
+  const Eigen::VectorXd v8 = svd.v.col(7);
   const Eigen::Vector4d u1 = v7.head<4>(), w1 = v7.tail<4>();
   const Eigen::Vector4d u2 = v8.head<4>(), w2 = v8.tail<4>();
   // q = c v7 + s v8 with q_r . q_d = 0: a homogeneous quadratic form in (c, s), solved through

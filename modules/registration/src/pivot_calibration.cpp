@@ -1,7 +1,6 @@
 #include "mrsns/registration/pivot_calibration.h"
 
 #include <Eigen/Eigenvalues>
-#include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -9,6 +8,7 @@
 #include <random>
 #include <string>
 
+#include "mrsns/core/dense_solvers.h"
 #include "mrsns/core/error.h"
 #include "mrsns/core/format.h"
 #include "mrsns/core/rigid.h"
@@ -39,9 +39,8 @@ LinearFit solveLinear(std::span<const Eigen::Isometry3d> poses, const std::vecto
     b.segment<3>(row) = -poses[i].translation();
     row += 3;
   }
-  Eigen::JacobiSVD<Eigen::MatrixXd> svd(a, Eigen::ComputeThinU | Eigen::ComputeThinV);
-  const Eigen::VectorXd x = svd.solve(b);
-  const auto& s = svd.singularValues();
+  Eigen::VectorXd s;
+  const Eigen::VectorXd x = svdLeastSquares(a, b, &s);
   LinearFit fit;
   fit.tip_marker = x.head<3>();
   fit.pivot_tracker = x.tail<3>();

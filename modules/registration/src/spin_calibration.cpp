@@ -1,10 +1,10 @@
 #include "mrsns/registration/spin_calibration.h"
 
-#include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
 #include <string>
 
+#include "mrsns/core/dense_solvers.h"
 #include "mrsns/core/error.h"
 #include "mrsns/core/format.h"
 #include "mrsns/core/rigid.h"
@@ -42,9 +42,9 @@ SpinResult calibrateSpin(std::span<const Eigen::Isometry3d> tracker_T_marker, co
                            " deg (at least " + formatFixed(options.min_spin_angle * kRadToDeg, 1) +
                            " deg needed): spin it further about its shaft");
   }
-  Eigen::JacobiSVD<Eigen::MatrixXd> svd(a, Eigen::ComputeThinV);
-  const auto& s = svd.singularValues();
-  result.shaft_marker = svd.matrixV().col(2).normalized();
+  const ThinSvd svd = thinSvd(a, SvdVectors::kV);
+  const Eigen::VectorXd& s = svd.singular_values;
+  result.shaft_marker = svd.v.col(2).normalized();
   result.axis_distinctness = s(2) > 0.0 ? s(1) / s(2) : std::numeric_limits<double>::infinity();
   // A spin about one axis leaves one near-zero singular value; wobble about
   // two axes (or a pivot) leaves none.

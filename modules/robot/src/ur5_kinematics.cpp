@@ -1,10 +1,10 @@
 #include "mrsns/robot/ur5_kinematics.h"
 
-#include <Eigen/SVD>
 #include <cmath>
 #include <numbers>
 #include <string>
 
+#include "mrsns/core/dense_solvers.h"
 #include "mrsns/core/error.h"
 #include "mrsns/core/units.h"
 
@@ -195,7 +195,7 @@ SingularityReport Ur5Kinematics::singularity(const Joints& q, const SingularityT
   // Dynamic size: GCC 12 warns (falsely) about the fixed-size JacobiSVD's storage.
   Eigen::MatrixXd J = jacobian(q);
   J.topRows(3) *= 1e-3;
-  r.min_singular_value = Eigen::JacobiSVD<Eigen::MatrixXd>(J).singularValues().minCoeff();
+  r.min_singular_value = thinSvd(J, SvdVectors::kNone).singular_values.minCoeff();
   return r;
 }
 
