@@ -2,7 +2,10 @@
 // server that sends each model as POLYDATA on connect, then each model's
 // hologram_T_model (Eq. 1 of paper 001) as TRANSFORM at the tracker rate, and
 // STATUS when tracking is lost; fed by playback, the simulator or PlusServer.
+// With --webxr-port it also serves the WebXR hologram client (HTTPS page and
+// WebSocket, admitted by a pairing code printed at start).
 #include <atomic>
+#include <cmath>
 #include <chrono>
 #include <csignal>
 #include <filesystem>
@@ -18,6 +21,9 @@
 #include "mrsns/tracking/igtl_source.h"
 #include "mrsns/tracking/playback_source.h"
 #include "mrsns/tracking/simulated_source.h"
+#include "mrsns/webxr/tls_certificate.h"
+#include "mrsns/webxr/webxr_hologram_service.h"
+#include "mrsns/workflow/steps.h"
 
 namespace mrsns::cli {
 namespace {
@@ -42,6 +48,10 @@ struct ServeOptions {
   double speed = 1.0;
   bool wait_for_client = false;
   std::uint64_t seed = 1;
+  int webxr_port = -1;  // -1: no WebXR client
+  std::string webxr_bind;  // empty: --bind
+  std::string webxr_code;  // empty: a random one
+  std::string webxr_tls_dir;  // empty: webxr::defaultCertificateDirectory()
 };
 
 std::atomic<bool> g_stop{false};
@@ -132,11 +142,62 @@ void validate(const ServeOptions& o) {
   if (!(o.rate_hz > 0.0 && o.rate_hz <= 10000.0)) throw InvalidArgumentError("--rate must be in (0, 10000] Hz");
   if (!(o.duration_s >= 0.0)) throw InvalidArgumentError("--duration must be >= 0 s (0 = until Ctrl-C)");
   if (!(o.speed >= 0.0)) throw InvalidArgumentError("--speed must be >= 0 (0 = as fast as possible)");
+  if (o.webxr_port < -1 || o.webxr_port > 65535) throw InvalidArgumentError("--webxr-port must be 0..65535");
+  if (o.webxr_port >= 0 && o.webxr_port == o.port && o.port != 0) {
+    throw InvalidArgumentError("--webxr-port and --port are the same port: give the WebXR client another one");
+  }
+  if (!o.webxr_code.empty() &&
+      (o.webxr_code.size() < 6 || o.webxr_code.find_first_not_of("0123456789") != std::string::npos)) {
+    throw InvalidArgumentError("--webxr-code must be at least 6 digits");
+  }
   for (const auto& m : o.models) {
     if (!std::filesystem::is_regular_file(m)) {
       throw FileError("model file '" + m + "' does not exist; check the paths given to --models");
     }
   }
+}
+
+std::unique_ptr<webxr::WebXrHologramService> makeWebXr(const ServeOptions& o,
+                                                      std::shared_ptr<TransformRepository> repository,
+                                                      std::vector<tracking::HologramModel> models,
+                                                      const tracking::HologramStreamOptions& stream_options) {
+  if (o.webxr_port < 0) return nullptr;
+  webxr::WebXrServiceOptions web;
+  web.server.bind_address = o.webxr_bind.empty() ? o.bind : o.webxr_bind;
+  web.server.port = static_cast<std::uint16_t>(o.webxr_port);
+  web.server.web_root = workflow::resourceDirectory() / "webxr";
+  web.server.three_root = webxr::defaultThreeJsDirectory();
+  const std::filesystem::path tls_dir =
+      o.webxr_tls_dir.empty() ? webxr::defaultCertificateDirectory() : std::filesystem::path(o.webxr_tls_dir);
+  web.server.certificate = webxr::ensureSelfSignedCertificate(tls_dir, {web.server.bind_address});
+  if (web.server.certificate.generated) {
+    std::cerr << "mrsns-cli serve: made a self-signed certificate for the WebXR client in " << tls_dir.string()
+              << std::endl;
+  }
+  web.server.pairing_code = o.webxr_code.empty() ? webxr::makePairingCode() : o.webxr_code;
+  web.stream.hologram_frame = stream_options.hologram_frame;
+  web.stream.forward_transforms = o.forward_tools ? stream_options.forward_transforms : std::vector<std::string>{};
+  web.stream.on_confirmation = stream_options.on_confirmation;
+  return std::make_unique<webxr::WebXrHologramService>(std::move(repository), std::move(models), std::move(web));
+}
+
+Json webXrReport(webxr::WebXrHologramService& web) {
+  const auto server = web.server().stats();
+  const auto relay = web.relay().stats();
+  Json j;
+  j["url"] = web.url();
+  j["port"] = web.server().port();
+  j["pages_paired"] = server.paired;
+  j["pairings_refused"] = server.pairings_refused;
+  j["clients_dropped"] = server.clients_dropped;
+  j["files_served"] = server.files_served;
+  j["frames_sent"] = server.frames_sent;
+  j["confirmations_forwarded"] = relay.confirmations_forwarded;
+  j["display_reports"] = relay.display_reports;
+  auto number = [](double v) { return std::isfinite(v) ? Json(v) : Json(nullptr); };
+  j["display_latency_p50_ms"] = number(relay.display_latency_p50_ms);
+  j["display_latency_p99_ms"] = number(relay.display_latency_p99_ms);
+  return j;
 }
 
 Report run(const ServeOptions& o) {
@@ -182,14 +243,27 @@ Report run(const ServeOptions& o) {
   if (o.igtl_version != 0) {
     stream_options.version = o.igtl_version == 1 ? igtlink::HeaderVersion::kV1 : igtlink::HeaderVersion::kV2;
   }
+  std::atomic<std::uint64_t> confirmations{0};
+  stream_options.on_confirmation = [&confirmations](igtlink::ClientId, const std::string& text) {
+    ++confirmations;
+    std::cerr << "mrsns-cli serve: confirmation from a headset: " << text.substr(0, 80) << std::endl;
+  };
   tracking::HologramStreamer streamer(server, repository, models, stream_options);
-  source->setUpdateCallback(
-      [&streamer](std::span<const tracking::ToolUpdate> updates) { streamer.update(updates.front().timestamp); });
+  std::unique_ptr<webxr::WebXrHologramService> web = makeWebXr(o, repository, models, stream_options);
+  source->setUpdateCallback([&streamer, &web](std::span<const tracking::ToolUpdate> updates) {
+    streamer.update(updates.front().timestamp);
+    if (web) web->update(updates.front().timestamp);
+  });
 
   SignalGuard signals;
   server.start();  // throws NetworkError (port in use, bad address)
   std::cerr << "mrsns-cli serve: listening on " << o.bind << ':' << server.port() << " (source " << source->name()
             << ", " << models.size() << " model(s))" << std::endl;
+  if (web) {
+    web->start();  // throws NetworkError
+    std::cerr << "mrsns-cli serve: WebXR client at " << web->url() << "  pairing code " << web->pairingCode()
+              << "  (certificate SHA-256 " << web->certificateFingerprint() << ")" << std::endl;
+  }
   const auto t0 = std::chrono::steady_clock::now();
   auto elapsed = [&t0] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
   bool started = false;
@@ -204,6 +278,7 @@ Report run(const ServeOptions& o) {
   // Let the last queued messages leave before closing the connections.
   for (int i = 0; i < 20; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(5));
   server.stop();
+  if (web) web->stop();
 
   const auto server_stats = server.stats();
   const auto stream_stats = streamer.stats();
@@ -231,6 +306,8 @@ Report run(const ServeOptions& o) {
   report.json["statuses_queued"] = stream_stats.statuses_queued;
   report.json["client_messages_ignored"] = stream_stats.client_messages_ignored;
   report.json["malformed_messages"] = server_stats.malformed_messages;
+  report.json["confirmations"] = confirmations.load();
+  if (web) report.json["webxr"] = webXrReport(*web);
   report.text = "served " + std::to_string(server_stats.messages_sent) + " messages to " +
                 std::to_string(server_stats.connections_accepted) + " client(s) in " + std::to_string(elapsed()) +
                 " s (" + std::to_string(server_stats.stream_messages_dropped) + " stream messages dropped, " +
@@ -290,6 +367,15 @@ void registerServeVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs) {
   sub->add_flag("--wait-for-client", o->wait_for_client,
                 "start the source only when the first client has connected (playback then starts at frame 0)");
   sub->add_option("--seed", o->seed, "simulator noise seed")->capture_default_str();
+  sub->add_option("--webxr-port", o->webxr_port,
+                  "also serve the WebXR hologram client (a page for headset browsers: HTTPS and a WebSocket) on this "
+                  "port, e.g. 8443 (0 = any free port); its URL and pairing code are printed at start");
+  sub->add_option("--webxr-bind", o->webxr_bind, "address of the WebXR client's server (default: --bind)");
+  sub->add_option("--webxr-code", o->webxr_code,
+                  "the WebXR pairing code (at least 6 digits; default: a new random code at each start)");
+  sub->add_option("--webxr-tls-dir", o->webxr_tls_dir,
+                  "folder of the WebXR server's certificate, made there on first use (default: "
+                  "~/.config/mrsns/webxr-tls)");
   addJsonFlag(*sub, options);
   verbs.emplace_back(sub, [o] { return run(*o); });
 }
