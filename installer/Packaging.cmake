@@ -1,6 +1,6 @@
 # CPack: `cpack -G DEB` in the build folder makes mrsns_<version>_amd64.deb
 # with mrsns-cli, the GUI `mrsns` (when built), the resources (phantom notes,
-# configurations, the sample session) under share/mrsns, the desktop entry and
+# configurations, the sample session, the WebXR client's page) under share/mrsns, the desktop entry and
 # the icon. Dependencies are computed from the linked Debian libraries.
 # The programs find share/mrsns beside their bin/ folder
 # (mrsns::workflow::resourceDirectory), so the package works under any prefix
@@ -20,6 +20,8 @@ set(CPACK_GENERATOR "DEB")
 set(CPACK_PACKAGING_INSTALL_PREFIX "/usr")
 set(CPACK_DEBIAN_FILE_NAME DEB-DEFAULT)
 set(CPACK_DEBIAN_PACKAGE_SHLIBDEPS ON)
+# The WebXR client's page imports three.js from Debian's package (served from /usr/share/javascript/three).
+set(CPACK_DEBIAN_PACKAGE_DEPENDS "libjs-three (>= 111)")
 set(CPACK_DEBIAN_PACKAGE_SECTION "science")
 set(CPACK_STRIP_FILES ON)
 include(CPack)

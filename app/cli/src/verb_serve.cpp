@@ -162,19 +162,16 @@ std::unique_ptr<webxr::WebXrHologramService> makeWebXr(const ServeOptions& o,
                                                       std::vector<tracking::HologramModel> models,
                                                       const tracking::HologramStreamOptions& stream_options) {
   if (o.webxr_port < 0) return nullptr;
-  webxr::WebXrServiceOptions web;
-  web.server.bind_address = o.webxr_bind.empty() ? o.bind : o.webxr_bind;
-  web.server.port = static_cast<std::uint16_t>(o.webxr_port);
-  web.server.web_root = workflow::resourceDirectory() / "webxr";
-  web.server.three_root = webxr::defaultThreeJsDirectory();
   const std::filesystem::path tls_dir =
       o.webxr_tls_dir.empty() ? webxr::defaultCertificateDirectory() : std::filesystem::path(o.webxr_tls_dir);
-  web.server.certificate = webxr::ensureSelfSignedCertificate(tls_dir, {web.server.bind_address});
+  webxr::WebXrServiceOptions web = webxr::workstationWebXrOptions(
+      workflow::resourceDirectory() / "webxr", o.webxr_bind.empty() ? o.bind : o.webxr_bind,
+      static_cast<std::uint16_t>(o.webxr_port), tls_dir);
   if (web.server.certificate.generated) {
     std::cerr << "mrsns-cli serve: made a self-signed certificate for the WebXR client in " << tls_dir.string()
               << std::endl;
   }
-  web.server.pairing_code = o.webxr_code.empty() ? webxr::makePairingCode() : o.webxr_code;
+  if (!o.webxr_code.empty()) web.server.pairing_code = o.webxr_code;
   web.stream.hologram_frame = stream_options.hologram_frame;
   web.stream.forward_transforms = o.forward_tools ? stream_options.forward_transforms : std::vector<std::string>{};
   web.stream.on_confirmation = stream_options.on_confirmation;

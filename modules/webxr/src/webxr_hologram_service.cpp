@@ -12,6 +12,18 @@ std::filesystem::path defaultThreeJsDirectory() {
   return "/usr/share/javascript/three";
 }
 
+WebXrServiceOptions workstationWebXrOptions(const std::filesystem::path& web_root, const std::string& bind_address,
+                                            std::uint16_t port, const std::filesystem::path& certificate_dir) {
+  WebXrServiceOptions options;
+  options.server.bind_address = bind_address;
+  options.server.port = port;
+  options.server.web_root = web_root;
+  options.server.three_root = defaultThreeJsDirectory();
+  options.server.certificate = ensureSelfSignedCertificate(certificate_dir, {bind_address});
+  options.server.pairing_code = makePairingCode();
+  return options;
+}
+
 WebXrHologramService::WebXrHologramService(std::shared_ptr<TransformRepository> repository,
                                            std::vector<tracking::HologramModel> models, WebXrServiceOptions options)
     : pairing_code_(options.server.pairing_code), fingerprint_(options.server.certificate.sha256_fingerprint) {

@@ -8,6 +8,7 @@
 #include "mrsns/core/wall_clock.h"
 #include "mrsns/igtlink/server.h"
 #include "mrsns/tracking/hologram_client_preset.h"
+#include "mrsns/webxr/webxr_hologram_service.h"
 #include "mrsns/workflow/navigation.h"
 #include "live_soft_tissue.h"
 #include "navigation_robot.h"
@@ -75,9 +76,10 @@ NavigationLoop::NavigationLoop(NavigationOptions options, std::vector<tracking::
     if (!options_.soft_tissue.hologram_model.empty()) {
       soft_tissue_->setMeshSink([this](const std::shared_ptr<const TriangleMesh>& mesh) {
         std::lock_guard stream_lock(stream_mutex_);
-        if (!streamer_) return;
+        if (!streamer_ && !web_) return;
         try {
-          streamer_->updateMeshVertices(options_.soft_tissue.hologram_model, mesh->vertices);
+          if (web_) web_->updateMeshVertices(options_.soft_tissue.hologram_model, mesh->vertices);
+          if (streamer_) streamer_->updateMeshVertices(options_.soft_tissue.hologram_model, mesh->vertices);
           ++hologram_vertex_updates_;
         } catch (const Error& e) {
           // A stream without that model (another client preset, a model of other vertices): said once.
@@ -166,12 +168,33 @@ void NavigationLoop::stopHologramStream() {
   streamer.reset();
 }
 
+webxr::WebXrHologramService& NavigationLoop::serveWebXr(std::vector<tracking::HologramModel> models,
+                                                        webxr::WebXrServiceOptions options) {
+  stopWebXr();
+  // Send-only like the OpenIGTLink stream: a page's confirmation goes to options.stream.on_confirmation alone.
+  auto web = std::make_unique<webxr::WebXrHologramService>(repository_, std::move(models), std::move(options));
+  std::lock_guard stream_lock(stream_mutex_);
+  if (running_) web->start();
+  web_ = std::move(web);
+  return *web_;
+}
+
+void NavigationLoop::stopWebXr() {
+  std::unique_ptr<webxr::WebXrHologramService> web;
+  {
+    std::lock_guard stream_lock(stream_mutex_);
+    web = std::move(web_);
+  }
+  if (web) web->stop();
+}
+
 void NavigationLoop::start() {
   if (running_.exchange(true)) return;
   start_ = std::chrono::steady_clock::now();
   {
     std::lock_guard stream_lock(stream_mutex_);
     if (server_) server_->start();
+    if (web_) web_->start();
   }
   {
     std::lock_guard lock(mutex_);
@@ -195,6 +218,7 @@ void NavigationLoop::stop() {
   {
     std::lock_guard stream_lock(stream_mutex_);
     if (server_) server_->stop();
+    if (web_) web_->stop();
   }
   std::lock_guard lock(mutex_);
   if (recorder_) {
@@ -364,6 +388,10 @@ void NavigationLoop::process(const std::vector<tracking::ToolUpdate>& batch, dou
     std::lock_guard stream_lock(stream_mutex_);
     if (streamer_) {
       streamer_->update(unixTimeSeconds());
+      streamed = true;
+    }
+    if (web_) {
+      web_->update(unixTimeSeconds());
       streamed = true;
     }
   }

@@ -29,6 +29,14 @@ struct WebXrServiceOptions {
 /// else /usr/share/javascript/three.
 std::filesystem::path defaultThreeJsDirectory();
 
+/// A workstation's WebXR options: the page in `web_root` (share/mrsns/webxr),
+/// Debian's three.js, the certificate in `certificate_dir` (made on first use
+/// for `bind_address`), a new pairing code. Throws as
+/// ensureSelfSignedCertificate.
+WebXrServiceOptions workstationWebXrOptions(const std::filesystem::path& web_root, const std::string& bind_address,
+                                            std::uint16_t port,
+                                            const std::filesystem::path& certificate_dir = defaultCertificateDirectory());
+
 class WebXrHologramService {
  public:
   /// Throws as HologramStreamer and WebXrServer do.

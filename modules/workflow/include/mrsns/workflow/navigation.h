@@ -30,6 +30,11 @@ namespace mrsns::igtlink {
 class Server;
 }
 
+namespace mrsns::webxr {
+class WebXrHologramService;
+struct WebXrServiceOptions;
+}  // namespace mrsns::webxr
+
 namespace mrsns::workflow {
 
 namespace detail {
@@ -360,6 +365,13 @@ class NavigationLoop {
   std::uint16_t streamHolograms(std::vector<tracking::HologramModel> models, int port, const std::string& client = {});
   /// Ends the hologram stream (clients are disconnected); navigation goes on. Idempotent.
   void stopHologramStream();
+  /// Serves the WebXR hologram client (webxr::WebXrHologramService: its own stream of `models` from this
+  /// loop's repository, the soft tissue's vertex updates included) while the loop runs; replaces a running
+  /// one. Returns the service (owned by the loop until stopWebXr). Throws like WebXrHologramService.
+  webxr::WebXrHologramService& serveWebXr(std::vector<tracking::HologramModel> models,
+                                          webxr::WebXrServiceOptions options);
+  /// Ends the WebXR service (pages disconnected, they reconnect when it comes back). Idempotent.
+  void stopWebXr();
   /// Simulated tracker failure: stops the tracking source while the loop and the robot keep running.
   void killTracker();
 
@@ -393,7 +405,8 @@ class NavigationLoop {
   std::unique_ptr<detail::VideoRecorder> video_;
   std::unique_ptr<igtlink::Server> server_;
   std::unique_ptr<tracking::HologramStreamer> streamer_;
-  mutable std::mutex stream_mutex_;  // guards server_, streamer_ (the GUI may start or end the stream any time)
+  std::unique_ptr<webxr::WebXrHologramService> web_;
+  mutable std::mutex stream_mutex_;  // guards server_, streamer_, web_ (the GUI may start or end them any time)
   SceneCallback scene_;
   DeformationHook deformation_;
   StopHandler stop_handler_;
