@@ -108,7 +108,8 @@ class HeadlessChromium {
 
   /// Runs `expression` in the page (a promise is awaited); its value.
   nlohmann::json evaluate(const std::string& expression) {
-    const auto r = call("Runtime.evaluate", {{"expression", expression}, {"returnByValue", true}, {"awaitPromise", true}});
+    const auto r =
+        call("Runtime.evaluate", {{"expression", expression}, {"returnByValue", true}, {"awaitPromise", true}});
     if (r.contains("exceptionDetails")) throw std::runtime_error("page exception: " + r["exceptionDetails"].dump());
     return r.at("result").value("value", nlohmann::json());
   }

@@ -32,7 +32,9 @@ std::vector<std::uint8_t> clientFrame(std::uint8_t first_byte, const std::vector
   return f;
 }
 
-std::vector<std::uint8_t> bytes(const std::string& s) { return {s.begin(), s.end()}; }
+std::vector<std::uint8_t> bytes(const std::string& s) {
+  return {s.begin(), s.end()};
+}
 
 TEST(WebSocketProtocol, AcceptKeyIsTheRfcExample) {
   // RFC 6455 §1.3.
@@ -92,11 +94,11 @@ void expectRefused(const std::vector<std::uint8_t>& frame, std::uint16_t code, s
 }
 
 TEST(WebSocketProtocol, ReaderRefusesWhatAPageHasNoReasonToSend) {
-  expectRefused(clientFrame(0x81, bytes("hello"), false), 1002);            // unmasked
-  expectRefused(clientFrame(0x01, bytes("part")), 1003);                    // fragmented (FIN clear)
-  expectRefused(clientFrame(0x80, bytes("continuation")), 1003);            // continuation
-  expectRefused(clientFrame(0xC1, bytes("compressed")), 1002);              // RSV1 without an extension
-  expectRefused(clientFrame(0x83, bytes("?")), 1002);                       // reserved opcode
+  expectRefused(clientFrame(0x81, bytes("hello"), false), 1002);              // unmasked
+  expectRefused(clientFrame(0x01, bytes("part")), 1003);                      // fragmented (FIN clear)
+  expectRefused(clientFrame(0x80, bytes("continuation")), 1003);              // continuation
+  expectRefused(clientFrame(0xC1, bytes("compressed")), 1002);                // RSV1 without an extension
+  expectRefused(clientFrame(0x83, bytes("?")), 1002);                         // reserved opcode
   expectRefused(clientFrame(0x89, std::vector<std::uint8_t>(126, 1)), 1002);  // control frame over 125 bytes
 }
 

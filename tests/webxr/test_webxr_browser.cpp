@@ -33,7 +33,8 @@ using Clock = std::chrono::steady_clock;
 
 std::filesystem::path artifactDir() {
   const char* binary = std::getenv("MRSNS_BINARY_DIR");
-  const auto dir = std::filesystem::path(binary != nullptr ? binary : MRSNS_TEST_BINARY_DIR) / "test-artifacts" / "webxr";
+  const auto dir =
+      std::filesystem::path(binary != nullptr ? binary : MRSNS_TEST_BINARY_DIR) / "test-artifacts" / "webxr";
   std::filesystem::create_directories(dir);
   return dir;
 }
@@ -112,7 +113,8 @@ TEST(WebXrBrowser, PairsReceivesMovesConfirmsShowsLossAndReconnects) {
         },
         2s, 1ms);
     ASSERT_TRUE(drawn) << "move " << i << " was not drawn within 2 s";
-    if (i > kWarmUpMoves) latencies_ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - sent).count());
+    if (i > kWarmUpMoves)
+      latencies_ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - sent).count());
     {
       std::lock_guard lock(shown_mutex);
       shown.clear();
@@ -123,8 +125,8 @@ TEST(WebXrBrowser, PairsReceivesMovesConfirmsShowsLossAndReconnects) {
   std::cout << std::endl;
   std::sort(latencies_ms.begin(), latencies_ms.end());
   const double median = latencies_ms[latencies_ms.size() / 2];
-  std::cout << "[ webxr ] update -> drawn in the page (incl. the report's way back): median " << median
-            << " ms, max " << latencies_ms.back() << " ms over " << latencies_ms.size() << " moves" << std::endl;
+  std::cout << "[ webxr ] update -> drawn in the page (incl. the report's way back): median " << median << " ms, max "
+            << latencies_ms.back() << " ms over " << latencies_ms.size() << " moves" << std::endl;
   EXPECT_LE(latencies_ms.back(), 50.0) << "a pose took longer than 50 ms to reach the page's scene on loopback";
 
   // The operator's confirmation.
@@ -140,14 +142,21 @@ TEST(WebXrBrowser, PairsReceivesMovesConfirmsShowsLossAndReconnects) {
   scene.repository->setStatus("Patient", "Tracker", TransformStatus::Invalid, unixTimeSeconds());
   service->update(unixTimeSeconds());
   EXPECT_TRUE(test::waitFor(
-      [&] { return browser.evaluate("document.getElementById('prompt').textContent").get<std::string>().find("Line up") == 0; },
+      [&] {
+        return browser.evaluate("document.getElementById('prompt').textContent").get<std::string>().find("Line up") ==
+               0;
+      },
       5s, 20ms));
   EXPECT_TRUE(test::waitFor(
-      [&] { return browser.evaluate("document.getElementById('lost').textContent").get<std::string>().find("Vertebra") != std::string::npos; },
+      [&] {
+        return browser.evaluate("document.getElementById('lost').textContent").get<std::string>().find("Vertebra") !=
+               std::string::npos;
+      },
       5s, 20ms));
   scene.moveVertebra(3);
   service->update(unixTimeSeconds());
-  EXPECT_TRUE(test::waitFor([&] { return browser.evaluate("document.getElementById('lost').hidden").get<bool>(); }, 5s, 20ms));
+  EXPECT_TRUE(
+      test::waitFor([&] { return browser.evaluate("document.getElementById('lost').hidden").get<bool>(); }, 5s, 20ms));
   std::this_thread::sleep_for(300ms);
   const auto png = browser.screenshotPng();
   ASSERT_GT(png.size(), 1000U);
@@ -157,7 +166,10 @@ TEST(WebXrBrowser, PairsReceivesMovesConfirmsShowsLossAndReconnects) {
   // The workstation restarts: the page reconnects, pairs again and has the scene back.
   service.reset();
   EXPECT_TRUE(test::waitFor(
-      [&] { return browser.evaluate("document.getElementById('connection').textContent").get<std::string>() == "reconnecting"; },
+      [&] {
+        return browser.evaluate("document.getElementById('connection').textContent").get<std::string>() ==
+               "reconnecting";
+      },
       5s, 20ms));
   service = std::make_unique<WebXrHologramService>(scene.repository, scene.models, options);
   service->start();

@@ -31,7 +31,9 @@ WebXrServerOptions serverOptions() {
   return options;
 }
 
-std::string pair(const std::string& code) { return R"({"type":"pair","code":")" + code + "\"}"; }
+std::string pair(const std::string& code) {
+  return R"({"type":"pair","code":")" + code + "\"}";
+}
 
 TEST(WebXrServerLimits, ServesItsOwnFilesAndNothingElse) {
   WebXrServer server(serverOptions());
@@ -177,8 +179,8 @@ TEST(WebXrServerLimits, AFloodIsHeldToTheRateAndTheGoodPageKeepsItsStream) {
   const double elapsed = std::chrono::duration<double>(Clock::now() - start).count();
   std::sort(gaps_ms.begin(), gaps_ms.end());
   std::cout << "[ webxr ] flood: " << sent.load() << " messages written by " << kFlooders << " clients, "
-            << received.load() << " read; good page: " << gaps_ms.size() << " poses, largest gap "
-            << gaps_ms.back() << " ms" << std::endl;
+            << received.load() << " read; good page: " << gaps_ms.size() << " poses, largest gap " << gaps_ms.back()
+            << " ms" << std::endl;
   // The token bucket: at most a bucket (one second's worth) plus the rate per client over the run.
   EXPECT_LE(static_cast<double>(received.load()), kFlooders * options.max_client_messages_per_second * (elapsed + 1.5));
   EXPECT_GT(gaps_ms.size(), 0.7 * kFloodSeconds * 100);

@@ -23,8 +23,8 @@ inline TriangleMesh boxMesh(const Eigen::Vector3d& half, const Eigen::Vector3d& 
                                .transpose();
   }
   mesh.faces.resize(12, 3);
-  mesh.faces << 0, 2, 1, 1, 2, 3, 4, 5, 6, 5, 7, 6, 0, 1, 4, 1, 5, 4, 2, 6, 3, 3, 6, 7, 0, 4, 2, 2, 4, 6, 1, 3, 5, 3,
-      7, 5;
+  mesh.faces << 0, 2, 1, 1, 2, 3, 4, 5, 6, 5, 7, 6, 0, 1, 4, 1, 5, 4, 2, 6, 3, 3, 6, 7, 0, 4, 2, 2, 4, 6, 1, 3, 5, 3, 7,
+      5;
   return mesh;
 }
 

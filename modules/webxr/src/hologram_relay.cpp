@@ -59,10 +59,16 @@ WsFrameBytes meshMessage(const std::string& name, const TriangleMesh& mesh) {
   const auto nf = static_cast<std::size_t>(mesh.faces.rows());
   const bool colors = mesh.colors.rows() == mesh.vertices.rows() && nv > 0;
   std::vector<std::vector<std::uint8_t>> arrays;
-  arrays.push_back(littleEndianArray<float>([&](std::size_t i) { return mesh.vertices(static_cast<Eigen::Index>(i / 3), static_cast<Eigen::Index>(i % 3)); }, nv * 3));
-  arrays.push_back(littleEndianArray<std::uint32_t>([&](std::size_t i) { return mesh.faces(static_cast<Eigen::Index>(i / 3), static_cast<Eigen::Index>(i % 3)); }, nf * 3));
+  arrays.push_back(littleEndianArray<float>(
+      [&](std::size_t i) { return mesh.vertices(static_cast<Eigen::Index>(i / 3), static_cast<Eigen::Index>(i % 3)); },
+      nv * 3));
+  arrays.push_back(littleEndianArray<std::uint32_t>(
+      [&](std::size_t i) { return mesh.faces(static_cast<Eigen::Index>(i / 3), static_cast<Eigen::Index>(i % 3)); },
+      nf * 3));
   if (colors) {
-    arrays.push_back(littleEndianArray<float>([&](std::size_t i) { return mesh.colors(static_cast<Eigen::Index>(i / 3), static_cast<Eigen::Index>(i % 3)); }, nv * 3));
+    arrays.push_back(littleEndianArray<float>(
+        [&](std::size_t i) { return mesh.colors(static_cast<Eigen::Index>(i / 3), static_cast<Eigen::Index>(i % 3)); },
+        nv * 3));
   }
   return binaryMessage(Json{{"type", "mesh"}, {"name", name}, {"vertices", nv}, {"faces", nf}, {"colors", colors}},
                        arrays);
@@ -100,9 +106,9 @@ struct HologramRelay::Impl {
           for (int c = 0; c < 4; ++c) m.push_back(transform->matrix(r, c));
         }
         ++transforms_relayed;
-        const auto frame = textFrame(Json{{"type", "transform"}, {"name", device}, {"m", m}, {"t", sample_time},
-                                          {"seq", transforms_relayed}}
-                                         .dump());
+        const auto frame = textFrame(
+            Json{{"type", "transform"}, {"name", device}, {"m", m}, {"t", sample_time}, {"seq", transforms_relayed}}
+                .dump());
         transforms[device] = frame;
         server.broadcast(frame);
       } else if (const auto* polydata = message.as<igtlink::PolyDataContent>()) {
@@ -113,12 +119,16 @@ struct HologramRelay::Impl {
       } else if (const auto* status = message.as<igtlink::StatusContent>()) {
         const bool ok = status->code == static_cast<std::uint16_t>(igtlink::StatusCode::kOk);
         const auto frame = textFrame(
-            Json{{"type", "status"}, {"name", device}, {"ok", ok}, {"text", ok ? "" : status->error_name + (status->message.empty() ? "" : ": " + status->message)}}
+            Json{{"type", "status"},
+                 {"name", device},
+                 {"ok", ok},
+                 {"text", ok ? "" : status->error_name + (status->message.empty() ? "" : ": " + status->message)}}
                 .dump());
         statuses[device] = frame;
         server.broadcast(frame);
       } else if (const auto* text = message.as<igtlink::StringContent>(); text != nullptr && device == "Prompt") {
-        prompt = textFrame(Json{{"type", "prompt"}, {"text", text->text}}.dump(-1, ' ', false, Json::error_handler_t::replace));
+        prompt = textFrame(
+            Json{{"type", "prompt"}, {"text", text->text}}.dump(-1, ' ', false, Json::error_handler_t::replace));
         server.broadcast(prompt);
       } else if (type == "NDARRAY") {
         const auto* raw = message.as<igtlink::RawContent>();
@@ -126,9 +136,9 @@ struct HologramRelay::Impl {
         const auto array = igtlink::decodeNdArray(raw->bytes);
         if (array.size.size() != 2 || array.size[1] != 3) return;
         const std::size_t n = array.size[0];
-        const auto frame = binaryMessage(
-            Json{{"type", "vertices"}, {"name", device}, {"count", n}},
-            {littleEndianArray<float>([&](std::size_t i) { return array.values[i]; }, n * 3)});
+        const auto frame =
+            binaryMessage(Json{{"type", "vertices"}, {"name", device}, {"count", n}},
+                          {littleEndianArray<float>([&](std::size_t i) { return array.values[i]; }, n * 3)});
         vertices[device] = frame;
         server.broadcast(frame);
       }
@@ -158,6 +168,9 @@ struct HologramRelay::Impl {
 
   void onPaired(WebXrClientId page) {
     std::lock_guard lock(mutex);
+    // The relay is the stream's headset only while a page is paired, so the stream's "headset connected"
+    // (readyClients) means a page someone has paired.
+    if (++paired_pages == 1 && started) client->start();
     server.send(page, textFrame(Json{{"type", "hello"}, {"units", "mm"}, {"frame", "Hologram"}}.dump()));
     server.send(page, streamState());
     for (const auto& [name, frame] : meshes) server.send(page, frame);
@@ -166,6 +179,25 @@ struct HologramRelay::Impl {
     for (const auto& [name, frame] : transforms) server.send(page, frame);
     if (prompt) server.send(page, prompt);
     if (!latency_text.empty()) server.send(page, textFrame(latency_text));
+  }
+
+  void onPageGone() {
+    {
+      std::lock_guard lock(mutex);
+      if (paired_pages == 0 || --paired_pages > 0) return;
+    }
+    client->stop();  // not under the mutex: the client's thread may be waiting for it
+    std::lock_guard lock(mutex);
+    if (paired_pages > 0) {  // a page paired meanwhile
+      if (started) client->start();
+      return;
+    }
+    stream_connected = false;
+    meshes.clear();
+    vertices.clear();
+    transforms.clear();
+    statuses.clear();
+    prompt.reset();
   }
 
   void onPage(WebXrClientId page, const std::string& text) {
@@ -186,7 +218,10 @@ struct HologramRelay::Impl {
         std::lock_guard lock(mutex);
         ++confirmations_forwarded;
       } else {
-        server.send(page, textFrame(R"({"type":"prompt","text":"The workstation's stream is not connected: the confirmation was not delivered."})"));
+        server.send(
+            page,
+            textFrame(
+                R"({"type":"prompt","text":"The workstation's stream is not connected: the confirmation was not delivered."})"));
       }
     } else if (type == "shown") {
       shown(page, message);
@@ -240,6 +275,8 @@ struct HologramRelay::Impl {
   std::unique_ptr<igtlink::Client> client;
 
   mutable std::mutex mutex;  // guards everything below
+  bool started = false;
+  std::size_t paired_pages = 0;
   bool stream_connected = false;
   std::map<std::string, WsFrameBytes> meshes, vertices, transforms, statuses;
   WsFrameBytes prompt;
@@ -262,16 +299,31 @@ HologramRelay::HologramRelay(WebXrServer& server, HologramRelayOptions options)
   server.onMessage([weak](WebXrClientId page, const std::string& text) {
     if (auto impl = weak.lock()) impl->onPage(page, text);
   });
+  server.onDisconnect([weak](WebXrClientId) {
+    if (auto impl = weak.lock()) impl->onPageGone();
+  });
   Impl* impl = impl_.get();  // the client is the Impl's own and stops before it goes
   impl->client->onMessage([impl](const igtlink::Message& message) { impl->onStream(message); });
   impl->client->onConnectionChange([impl](bool connected) { impl->onStreamConnection(connected); });
 }
 
-HologramRelay::~HologramRelay() { stop(); }
+HologramRelay::~HologramRelay() {
+  stop();
+}
 
-void HologramRelay::start() { impl_->client->start(); }
+void HologramRelay::start() {
+  std::lock_guard lock(impl_->mutex);
+  impl_->started = true;
+  if (impl_->paired_pages > 0) impl_->client->start();
+}
 
-void HologramRelay::stop() { impl_->client->stop(); }
+void HologramRelay::stop() {
+  {
+    std::lock_guard lock(impl_->mutex);
+    impl_->started = false;
+  }
+  impl_->client->stop();
+}
 
 void HologramRelay::onDisplayed(std::function<void(const DisplayedPose&)> handler) {
   std::lock_guard lock(impl_->mutex);
@@ -289,8 +341,8 @@ HologramRelayStats HologramRelay::stats() const {
   const std::vector<double> recent(impl_->latencies.begin(), impl_->latencies.end());
   s.display_latency_p50_ms = percentile(recent, 0.5);
   s.display_latency_p99_ms = percentile(recent, 0.99);
-  s.display_latency_max_ms = recent.empty() ? std::numeric_limits<double>::quiet_NaN()
-                                            : *std::max_element(recent.begin(), recent.end());
+  s.display_latency_max_ms =
+      recent.empty() ? std::numeric_limits<double>::quiet_NaN() : *std::max_element(recent.begin(), recent.end());
   return s;
 }
 

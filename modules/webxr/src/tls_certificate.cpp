@@ -80,15 +80,17 @@ void generate(const fs::path& certificate_path, const fs::path& key_path, const 
   X509V3_CTX context;
   X509V3_set_ctx_nodb(&context);
   X509V3_set_ctx(&context, certificate.get(), certificate.get(), nullptr, nullptr, 0);
-  for (const auto& [nid, value] : {std::pair{NID_subject_alt_name, san}, std::pair{NID_basic_constraints, std::string("critical,CA:FALSE")},
-                                   std::pair{NID_ext_key_usage, std::string("serverAuth")},
-                                   std::pair{NID_key_usage, std::string("critical,digitalSignature")}}) {
+  for (const auto& [nid, value] :
+       {std::pair{NID_subject_alt_name, san}, std::pair{NID_basic_constraints, std::string("critical,CA:FALSE")},
+        std::pair{NID_ext_key_usage, std::string("serverAuth")},
+        std::pair{NID_key_usage, std::string("critical,digitalSignature")}}) {
     X509_EXTENSION* extension = X509V3_EXT_conf_nid(nullptr, &context, nid, value.c_str());
     if (extension == nullptr) throw InvalidArgumentError("cannot put '" + value + "' in the certificate");
     X509_add_ext(certificate.get(), extension, -1);
     X509_EXTENSION_free(extension);
   }
-  if (X509_sign(certificate.get(), key.get(), EVP_sha256()) == 0) throw ComputationError("OpenSSL could not sign the certificate");
+  if (X509_sign(certificate.get(), key.get(), EVP_sha256()) == 0)
+    throw ComputationError("OpenSSL could not sign the certificate");
 
   {
     // The key is readable by its owner alone, from its creation on.
@@ -126,10 +128,12 @@ TlsCertificate ensureSelfSignedCertificate(const fs::path& directory, const std:
   }
   File certificate_file = openFile(result.certificate_pem, "rb");
   Certificate certificate(PEM_read_X509(certificate_file.get(), nullptr, nullptr, nullptr), X509_free);
-  if (!certificate) throw FormatError(result.certificate_pem.string() + " is not a PEM certificate (delete it to make a new one)");
+  if (!certificate)
+    throw FormatError(result.certificate_pem.string() + " is not a PEM certificate (delete it to make a new one)");
   File key_file = openFile(result.private_key_pem, "rb");
   Key key(PEM_read_PrivateKey(key_file.get(), nullptr, nullptr, nullptr), EVP_PKEY_free);
-  if (!key) throw FormatError(result.private_key_pem.string() + " is not a PEM private key (delete it to make a new one)");
+  if (!key)
+    throw FormatError(result.private_key_pem.string() + " is not a PEM private key (delete it to make a new one)");
   if (X509_check_private_key(certificate.get(), key.get()) != 1) {
     throw FormatError(result.certificate_pem.string() + " and " + result.private_key_pem.string() +
                       " do not belong together (delete both to make a new pair)");

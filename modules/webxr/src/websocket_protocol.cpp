@@ -45,8 +45,8 @@ std::vector<std::uint8_t> encodeWsFrame(WsOpcode opcode, std::string_view payloa
 std::vector<std::uint8_t> encodeWsClose(std::uint16_t code, std::string_view reason) {
   std::vector<std::uint8_t> payload{static_cast<std::uint8_t>(code >> 8), static_cast<std::uint8_t>(code)};
   // A control frame's payload is at most 125 bytes.
-  payload.insert(payload.end(), reason.begin(), reason.begin() + static_cast<std::ptrdiff_t>(std::min<std::size_t>(
-                                                                      reason.size(), 123)));
+  payload.insert(payload.end(), reason.begin(),
+                 reason.begin() + static_cast<std::ptrdiff_t>(std::min<std::size_t>(reason.size(), 123)));
   return encodeWsFrame(WsOpcode::kClose, payload);
 }
 

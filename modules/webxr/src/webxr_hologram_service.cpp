@@ -33,11 +33,13 @@ WebXrHologramService::WebXrHologramService(std::shared_ptr<TransformRepository> 
   loopback_ = std::make_unique<igtlink::Server>(loopback);
   auto stream = tracking::withClientPreset(std::move(options.stream), tracking::hologramClientPreset("slicer"));
   streamer_ = std::make_unique<tracking::HologramStreamer>(*loopback_, std::move(repository), std::move(models),
-                                                          std::move(stream));
+                                                           std::move(stream));
   server_ = std::make_unique<WebXrServer>(std::move(options.server));
 }
 
-WebXrHologramService::~WebXrHologramService() { stop(); }
+WebXrHologramService::~WebXrHologramService() {
+  stop();
+}
 
 void WebXrHologramService::start() {
   loopback_->start();

@@ -1,7 +1,9 @@
 #include "mrsns/webxr/webxr_server.h"
 
+#include <fcntl.h>
 #include <openssl/crypto.h>
 #include <openssl/rand.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <array>
@@ -19,8 +21,6 @@
 #include <optional>
 #include <sstream>
 #include <thread>
-#include <fcntl.h>
-#include <unistd.h>
 
 #include "http_request.h"
 #include "mrsns/core/error.h"
@@ -184,7 +184,8 @@ struct WebXrServer::Impl : std::enable_shared_from_this<WebXrServer::Impl> {
         return;
       }
       // A page from another site must not reach the stream through the headset's browser.
-      if (const auto origin = r.header("origin"); origin && !originMatchesHost(*origin, r.header("host").value_or(""))) {
+      if (const auto origin = r.header("origin");
+          origin && !originMatchesHost(*origin, r.header("host").value_or(""))) {
         respond(403, "Forbidden", "text/plain", "cross-origin WebSocket refused\n");
         return;
       }
@@ -250,15 +251,12 @@ struct WebXrServer::Impl : std::enable_shared_from_this<WebXrServer::Impl> {
         if (closed || closing) return;
         switch (frame.opcode) {
           case WsOpcode::kPing:
-            queueBytes(std::make_shared<const std::vector<std::uint8_t>>(encodeWsFrame(WsOpcode::kPong, frame.payload)));
+            queueBytes(
+                std::make_shared<const std::vector<std::uint8_t>>(encodeWsFrame(WsOpcode::kPong, frame.payload)));
             break;
-          case WsOpcode::kPong:
-            break;
-          case WsOpcode::kClose:
-            closeWith(1000, "");
-            return;
-          case WsOpcode::kBinary:
-            throw ProtocolViolation(1003, "binary messages are not accepted from a client");
+          case WsOpcode::kPong: break;
+          case WsOpcode::kClose: closeWith(1000, ""); return;
+          case WsOpcode::kBinary: throw ProtocolViolation(1003, "binary messages are not accepted from a client");
           case WsOpcode::kText:
             tokens -= 1.0;
             text(std::string(frame.payload.begin(), frame.payload.end()));
@@ -296,8 +294,7 @@ struct WebXrServer::Impl : std::enable_shared_from_this<WebXrServer::Impl> {
         return;
       }
       if (server.pairedCount() >= server.options.max_clients) {
-        refusePairing("the workstation serves " + std::to_string(server.options.max_clients) +
-                      " headsets already");
+        refusePairing("the workstation serves " + std::to_string(server.options.max_clients) + " headsets already");
         return;
       }
       server.failed_pairings = 0;
@@ -394,11 +391,13 @@ struct WebXrServer::Impl : std::enable_shared_from_this<WebXrServer::Impl> {
   explicit Impl(WebXrServerOptions o) : options(std::move(o)), tls(asio::ssl::context::tls_server), acceptor(io) {}
 
   std::optional<ServedFile> servedFile(const std::string& path) const {
-    if (path == "/" || path == "/index.html") return ServedFile{options.web_root / "index.html", "text/html; charset=utf-8"};
+    if (path == "/" || path == "/index.html")
+      return ServedFile{options.web_root / "index.html", "text/html; charset=utf-8"};
     if (path == "/client.js") return ServedFile{options.web_root / "client.js", "text/javascript"};
     if (path == "/style.css") return ServedFile{options.web_root / "style.css", "text/css"};
     // The two files of Debian's three.js the page imports, at the paths their own relative imports expect.
-    if (path == "/three/build/three.module.js") return ServedFile{options.three_root / "build/three.module.js", "text/javascript"};
+    if (path == "/three/build/three.module.js")
+      return ServedFile{options.three_root / "build/three.module.js", "text/javascript"};
     if (path == "/three/examples/jsm/controls/OrbitControls.js") {
       return ServedFile{options.three_root / "examples/jsm/controls/OrbitControls.js", "text/javascript"};
     }
@@ -471,18 +470,25 @@ WebXrServer::WebXrServer(WebXrServerOptions options) {
   impl_ = std::make_shared<Impl>(std::move(options));
 }
 
-WebXrServer::~WebXrServer() { stop(); }
+WebXrServer::~WebXrServer() {
+  stop();
+}
 
-void WebXrServer::onPaired(PairedHandler handler) { impl_->on_paired = std::move(handler); }
-void WebXrServer::onMessage(MessageHandler handler) { impl_->on_message = std::move(handler); }
-void WebXrServer::onDisconnect(DisconnectHandler handler) { impl_->on_disconnect = std::move(handler); }
+void WebXrServer::onPaired(PairedHandler handler) {
+  impl_->on_paired = std::move(handler);
+}
+void WebXrServer::onMessage(MessageHandler handler) {
+  impl_->on_message = std::move(handler);
+}
+void WebXrServer::onDisconnect(DisconnectHandler handler) {
+  impl_->on_disconnect = std::move(handler);
+}
 
 void WebXrServer::start() {
   auto& impl = *impl_;
   try {
     impl.tls.set_options(asio::ssl::context::default_workarounds | asio::ssl::context::no_sslv2 |
-                         asio::ssl::context::no_sslv3 | asio::ssl::context::no_tlsv1 |
-                         asio::ssl::context::no_tlsv1_1);
+                         asio::ssl::context::no_sslv3 | asio::ssl::context::no_tlsv1 | asio::ssl::context::no_tlsv1_1);
     impl.tls.use_certificate_chain_file(impl.options.certificate.certificate_pem.string());
     impl.tls.use_private_key_file(impl.options.certificate.private_key_pem.string(), asio::ssl::context::pem);
   } catch (const std::system_error& e) {
@@ -521,7 +527,9 @@ void WebXrServer::stop() {
   impl_->thread.join();
 }
 
-std::uint16_t WebXrServer::port() const { return impl_->bound_port; }
+std::uint16_t WebXrServer::port() const {
+  return impl_->bound_port;
+}
 
 std::string WebXrServer::url() const {
   std::string host = impl_->options.bind_address;
@@ -532,12 +540,14 @@ std::string WebXrServer::url() const {
   return "https://" + host + ":" + std::to_string(port()) + "/";
 }
 
-std::size_t WebXrServer::pairedClients() const { return impl_->paired_clients; }
+std::size_t WebXrServer::pairedClients() const {
+  return impl_->paired_clients;
+}
 
 WebXrServerStats WebXrServer::stats() const {
   const auto& c = impl_->counters;
-  return {c.connections, c.files_served, c.not_found, c.paired, c.pairings_refused, c.clients_dropped,
-          c.client_messages, c.frames_sent, c.bytes_sent};
+  return {c.connections,     c.files_served,    c.not_found,   c.paired,    c.pairings_refused,
+          c.clients_dropped, c.client_messages, c.frames_sent, c.bytes_sent};
 }
 
 void WebXrServer::send(WebXrClientId client, WsFrameBytes frame) {

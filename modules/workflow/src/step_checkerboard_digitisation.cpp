@@ -269,7 +269,7 @@ StepResult runCheckerboardDigitisation(Session& session, const Json& params, con
   const Params p(kDigitisationStep, params,
                  {"source", "host", "port", "duration_s", "connect_timeout_s", "hmd_address", "hmd_port", "unity",
                   "tool", "board_tool", "board", "tolerance_mm", "inlier_threshold_mm", "dwell_s", "dwell_radius_mm",
-                  "recording", "touches"});
+                  "recording", "touches", "webxr_port", "webxr_address", "webxr_code", "webxr_tls_dir"});
   checkCancel(context);
   const std::string source = p.text("source", "plus");
   const BoardDefinition board = boardOfStep(p);
@@ -352,7 +352,7 @@ StepResult runCheckerboardDigitisation(Session& session, const Json& params, con
       return result;
     }
   } else if (source == "file") {
-    for (const char* key : {"host", "port", "duration_s", "connect_timeout_s", "hmd_address", "hmd_port", "unity"}) {
+    for (const char* key : {"host", "port", "duration_s", "connect_timeout_s", "hmd_address", "hmd_port", "unity", "webxr_port", "webxr_address", "webxr_code", "webxr_tls_dir"}) {
       if (p.has(key)) throw InvalidArgumentError(std::string(kDigitisationStep) + ": " + key + " is for source=plus");
     }
     if (!p.has("recording") || !p.has("touches")) {

@@ -435,7 +435,7 @@ StepResult runAcquiredHmdCalibration(Session& session, const Json& params, const
                  {"source", "host", "port", "recording", "holds", "duration_s", "connect_timeout_s", "hmd_address",
                   "hmd_port", "unity", "tool", "cube", "views", "hold_s", "hmd_wait_s", "verify_s",
                   "max_spread_mm", "max_view_disagreement_mm", "hologram_position_mm", "k_close", "omega",
-                  "tremor_compensation"});
+                  "tremor_compensation", "webxr_port", "webxr_address", "webxr_code", "webxr_tls_dir"});
   checkCancel(context);
   const std::string source = p.text("source", "hmd");
   const CubeDefinition cube = readCubeDefinition(cubeFile(p));
@@ -541,7 +541,7 @@ StepResult runAcquiredHmdCalibration(Session& session, const Json& params, const
   } else if (source == "file") {
     for (const char* key : {"host", "port", "duration_s", "connect_timeout_s", "hmd_address", "hmd_port", "unity",
                             "views", "hold_s", "hmd_wait_s", "verify_s", "max_spread_mm", "max_view_disagreement_mm",
-                            "hologram_position_mm"}) {
+                            "hologram_position_mm", "webxr_port", "webxr_address", "webxr_code", "webxr_tls_dir"}) {
       if (p.has(key)) throw InvalidArgumentError(std::string(kStep) + ": " + key + " is for source=hmd");
     }
     if (!p.has("recording") || !p.has("holds")) {

@@ -14,7 +14,9 @@
 // page that pairs (or reconnects) later gets the whole scene at once. Being a
 // client of the stream, it gets exactly what an OpenIGTLink headset gets and
 // nothing more: no message from a page reaches anything but the stream's
-// confirmation callback.
+// confirmation callback. It connects to the stream while at least one page is
+// paired and leaves when the last one goes, so the stream's count of ready
+// headsets (HologramStreamer::readyClients) counts paired pages.
 //
 // Latency: each "transform" carries the tracker sample's time (the message's
 // header timestamp); the page echoes it in "shown" once the frame with that
@@ -63,7 +65,7 @@ class HologramRelay {
   HologramRelay(const HologramRelay&) = delete;
   HologramRelay& operator=(const HologramRelay&) = delete;
 
-  /// Connects to the stream (and keeps reconnecting). Returns at once.
+  /// From now on, connects to the stream whenever a page is paired (and keeps reconnecting). Returns at once.
   void start();
   void stop();
 

@@ -33,9 +33,9 @@ std::filesystem::path defaultThreeJsDirectory();
 /// Debian's three.js, the certificate in `certificate_dir` (made on first use
 /// for `bind_address`), a new pairing code. Throws as
 /// ensureSelfSignedCertificate.
-WebXrServiceOptions workstationWebXrOptions(const std::filesystem::path& web_root, const std::string& bind_address,
-                                            std::uint16_t port,
-                                            const std::filesystem::path& certificate_dir = defaultCertificateDirectory());
+WebXrServiceOptions workstationWebXrOptions(
+    const std::filesystem::path& web_root, const std::string& bind_address, std::uint16_t port,
+    const std::filesystem::path& certificate_dir = defaultCertificateDirectory());
 
 class WebXrHologramService {
  public:

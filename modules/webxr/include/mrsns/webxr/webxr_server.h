@@ -46,7 +46,7 @@ struct WebXrServerOptions {
   /// 127.0.0.1 by default: a headset on the lab's network needs the
   /// workstation's address (or 0.0.0.0) given explicitly.
   std::string bind_address = "127.0.0.1";
-  std::uint16_t port = 8443;  ///< 0: any free port (see port())
+  std::uint16_t port = 8443;         ///< 0: any free port (see port())
   std::filesystem::path web_root;    ///< index.html, client.js, style.css
   std::filesystem::path three_root;  ///< Debian's libjs-three (/usr/share/javascript/three)
   TlsCertificate certificate;        ///< ensureSelfSignedCertificate
