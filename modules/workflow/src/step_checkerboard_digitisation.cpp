@@ -352,7 +352,8 @@ StepResult runCheckerboardDigitisation(Session& session, const Json& params, con
       return result;
     }
   } else if (source == "file") {
-    for (const char* key : {"host", "port", "duration_s", "connect_timeout_s", "hmd_address", "hmd_port", "unity", "webxr_port", "webxr_address", "webxr_code", "webxr_tls_dir"}) {
+    for (const char* key : {"host", "port", "duration_s", "connect_timeout_s", "hmd_address", "hmd_port", "unity",
+                            "webxr_port", "webxr_address", "webxr_code", "webxr_tls_dir"}) {
       if (p.has(key)) throw InvalidArgumentError(std::string(kDigitisationStep) + ": " + key + " is for source=plus");
     }
     if (!p.has("recording") || !p.has("touches")) {
