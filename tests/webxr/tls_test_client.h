@@ -2,11 +2,10 @@
 // A blocking TLS client for the WebXR server's tests: HTTP requests, the
 // WebSocket upgrade, masked client frames (or any bytes), server frames read
 // with a timeout.
-#include <sys/socket.h>
-#include <sys/time.h>
-
+#include <array>
 #include <asio.hpp>
 #include <asio/ssl.hpp>
+#include <chrono>
 #include <optional>
 #include <string>
 #include <vector>
@@ -18,13 +17,13 @@ class TlsTestClient {
   explicit TlsTestClient(std::uint16_t port) : tls_(asio::ssl::context::tls_client), stream_(io_, tls_) {
     tls_.set_verify_mode(asio::ssl::verify_none);  // the server's certificate is self-signed
     stream_.lowest_layer().connect({asio::ip::make_address("127.0.0.1"), port});
-    setTimeout(5.0);
     stream_.handshake(asio::ssl::stream_base::client);
   }
 
+  /// How long readFrame waits for the server (Asio's blocking reads ignore SO_RCVTIMEO, so reads are
+  /// asynchronous with a deadline).
   void setTimeout(double seconds) {
-    timeval tv{static_cast<time_t>(seconds), static_cast<suseconds_t>((seconds - static_cast<time_t>(seconds)) * 1e6)};
-    ::setsockopt(stream_.lowest_layer().native_handle(), SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+    timeout_ = std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::duration<double>(seconds));
   }
 
   /// The whole response (the server closes after one).
@@ -102,11 +101,24 @@ class TlsTestClient {
  private:
   bool fill(std::size_t n) {
     while (pending_.size() < n) {
-      char chunk[65536];
-      asio::error_code ec;
-      const std::size_t got = stream_.read_some(asio::buffer(chunk), ec);
+      std::array<char, 65536> chunk{};
+      asio::error_code ec = asio::error::would_block;
+      std::size_t got = 0;
+      stream_.async_read_some(asio::buffer(chunk), [&](const asio::error_code& e, std::size_t g) {
+        ec = e;
+        got = g;
+      });
+      io_.restart();
+      io_.run_for(timeout_);
+      if (ec == asio::error::would_block) {  // the deadline passed: give the read up
+        asio::error_code ignored;
+        stream_.lowest_layer().cancel(ignored);
+        io_.restart();
+        io_.run();
+        return false;
+      }
       if (ec) return false;
-      pending_.append(chunk, got);
+      pending_.append(chunk.data(), got);
     }
     return true;
   }
@@ -114,6 +126,7 @@ class TlsTestClient {
   asio::io_context io_;
   asio::ssl::context tls_;
   asio::ssl::stream<asio::ip::tcp::socket> stream_;
+  std::chrono::milliseconds timeout_{5000};
   std::string pending_;
 };
 

@@ -85,6 +85,30 @@ FunctionPanel::FunctionPanel(QWidget* parent) : QWidget(parent) {
   mr_layout->addWidget(stream_client_, 1, 1);
   mr_layout->addWidget(stream_status_, 2, 0, 1, 2);
   connect(stream_button_, &QPushButton::toggled, this, &FunctionPanel::hologramStreamToggled);
+  // The WebXR client: a page the headset's browser opens, admitted by the pairing code shown here.
+  webxr_button_ = new QPushButton(tr("WebXR client"), mr);
+  webxr_button_->setObjectName(QStringLiteral("webxrClient"));
+  webxr_button_->setCheckable(true);
+  webxr_button_->setToolTip(tr("Serve the holograms to a headset's browser (HTTPS page, no app to install); the "
+                               "headset enters the pairing code shown below"));
+  webxr_port_ = new QSpinBox(mr);
+  webxr_port_->setObjectName(QStringLiteral("webxrPort"));
+  webxr_port_->setRange(1024, 65535);
+  webxr_port_->setValue(8443);
+  webxr_port_->setPrefix(tr("port "));
+  webxr_network_ = new QCheckBox(tr("Reachable from the network"), mr);
+  webxr_network_->setObjectName(QStringLiteral("webxrNetwork"));
+  webxr_network_->setToolTip(tr("Off: this machine only (127.0.0.1). On: every interface, for a headset on the "
+                                "lab's network (it still needs the pairing code)"));
+  webxr_status_ = new QLabel(tr("off"), mr);
+  webxr_status_->setObjectName(QStringLiteral("webxrStatus"));
+  webxr_status_->setWordWrap(true);
+  webxr_status_->setTextInteractionFlags(Qt::TextSelectableByMouse);
+  mr_layout->addWidget(webxr_button_, 3, 0);
+  mr_layout->addWidget(webxr_port_, 3, 1);
+  mr_layout->addWidget(webxr_network_, 4, 0, 1, 2);
+  mr_layout->addWidget(webxr_status_, 5, 0, 1, 2);
+  connect(webxr_button_, &QPushButton::toggled, this, &FunctionPanel::webXrToggled);
   layout->addWidget(mr);
 
   auto* display = new QGroupBox(tr("Ultrasound and display"), this);
@@ -147,6 +171,27 @@ void FunctionPanel::setStreaming(bool on, const QString& detail) {
   stream_port_->setEnabled(!on);
   stream_client_->setEnabled(!on);
   stream_status_->setText(detail);
+}
+
+void FunctionPanel::setWebXr(bool on, const QString& detail) {
+  const QSignalBlocker block(webxr_button_);
+  webxr_button_->setChecked(on);
+  webxr_port_->setEnabled(!on);
+  webxr_network_->setEnabled(!on);
+  webxr_status_->setText(detail);
+  if (!on) webxr_status_->setToolTip(QString());
+}
+
+void FunctionPanel::setWebXrDetail(const QString& detail) {
+  webxr_status_->setToolTip(detail);
+}
+
+int FunctionPanel::webXrPort() const {
+  return webxr_port_->value();
+}
+
+bool FunctionPanel::webXrFromNetwork() const {
+  return webxr_network_->isChecked();
 }
 
 int FunctionPanel::streamPort() const {

@@ -38,9 +38,19 @@ class FunctionPanel : public QWidget {
   [[nodiscard]] std::string streamClient() const;
   [[nodiscard]] bool layerVisible(DisplayLayer layer) const;
 
+  /// Reflects the WebXR client's server (the button stays in sync when starting fails); `detail` shows the
+  /// page's address and pairing code.
+  void setWebXr(bool on, const QString& detail);
+  /// Shown on hovering the WebXR status (who serves the page, headsets paired, the certificate).
+  void setWebXrDetail(const QString& detail);
+  [[nodiscard]] int webXrPort() const;
+  /// Served on every interface (a headset on the lab's network) rather than this machine only.
+  [[nodiscard]] bool webXrFromNetwork() const;
+
  signals:
   void runStepRequested(const QString& step);
   void hologramStreamToggled(bool on);
+  void webXrToggled(bool on);
   void liveNavigationToggled(bool on);
   void robotRearmRequested();
   void robotStopRequested();
@@ -57,6 +67,10 @@ class FunctionPanel : public QWidget {
   QSpinBox* stream_port_ = nullptr;
   QComboBox* stream_client_ = nullptr;
   QLabel* stream_status_ = nullptr;
+  QPushButton* webxr_button_ = nullptr;
+  QSpinBox* webxr_port_ = nullptr;
+  QCheckBox* webxr_network_ = nullptr;
+  QLabel* webxr_status_ = nullptr;
   std::vector<std::pair<DisplayLayer, QCheckBox*>> layers_;
 };
 

@@ -13,6 +13,7 @@
 #include "mrsns/core/mesh_locator.h"
 #include "mrsns/rendering/scene.h"
 #include "mrsns/rendering/tool_models.h"
+#include "mrsns/webxr/webxr_hologram_service.h"
 #include "output_panel.h"
 
 namespace mrsns::gui {
@@ -354,6 +355,16 @@ std::uint16_t LiveNavigation::streamHolograms(std::vector<tracking::HologramMode
                                               const std::string& client) {
   if (!loop_) return 0;
   return loop_->streamHolograms(std::move(models), port, client);
+}
+
+webxr::WebXrHologramService& LiveNavigation::serveWebXr(std::vector<tracking::HologramModel> models,
+                                                        webxr::WebXrServiceOptions options) {
+  if (!loop_) throw InvalidArgumentError("the WebXR client can be handed to live navigation only while it runs");
+  return loop_->serveWebXr(std::move(models), std::move(options));
+}
+
+void LiveNavigation::stopWebXr() {
+  if (loop_) loop_->stopWebXr();
 }
 
 void LiveNavigation::stopHologramStream() {

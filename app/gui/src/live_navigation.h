@@ -94,6 +94,10 @@ class LiveNavigation : public QObject {
   /// NavigationLoop::streamHolograms; false-y (0) when not running.
   std::uint16_t streamHolograms(std::vector<tracking::HologramModel> models, int port, const std::string& client);
   void stopHologramStream();
+  /// NavigationLoop::serveWebXr while navigation runs. Throws InvalidArgumentError when it does not.
+  webxr::WebXrHologramService& serveWebXr(std::vector<tracking::HologramModel> models,
+                                          webxr::WebXrServiceOptions options);
+  void stopWebXr();
   /// Re-adds the tool objects after the scene was cleared (session reloaded).
   void addTools();
   [[nodiscard]] workflow::NavigationStatus status() const;

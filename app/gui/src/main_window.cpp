@@ -30,6 +30,7 @@
 #include "mrsns/rendering/scene.h"
 #include "mrsns/rendering/slice_views.h"
 #include "mrsns/tracking/hologram_streamer.h"
+#include "mrsns/webxr/webxr_hologram_service.h"
 #include "mrsns/workflow/planning.h"
 #include "mrsns/workflow/session.h"
 #include "mrsns/workflow/steps.h"
@@ -122,6 +123,13 @@ MainWindow::MainWindow(MainWindowOptions options, QWidget* parent) : QMainWindow
     statusBar()->showMessage(tr("Robot stopped at %1: %2").arg(when.toString(QStringLiteral("HH:mm:ss")), reason));
   });
   connect(function_, &FunctionPanel::resetCameraRequested, display_, &DisplayArea::resetCamera);
+  connect(function_, &FunctionPanel::webXrToggled, this, [this](bool on) {
+    if (on) {
+      startWebXr(function_->webXrPort(), function_->webXrFromNetwork());
+    } else {
+      stopWebXr();
+    }
+  });
   connect(function_, &FunctionPanel::hologramStreamToggled, this, [this](bool on) {
     if (on) {
       startHologramStream(function_->streamPort(), function_->streamClient());
@@ -155,6 +163,7 @@ MainWindow::~MainWindow() {
   tasks_->cancel();
   tasks_->waitForFinished();
   stopHologramStream();
+  stopWebXr();
 }
 
 // ---------------------------------------------------------------- menus
@@ -401,7 +410,8 @@ bool MainWindow::runStep(const QString& step, const nlohmann::json& params) {
   const std::string name = step.toStdString();
   confirm_->setVisible(name == "hmd-calibration");
   const std::atomic<std::uint64_t>* confirmations = &confirmations_;
-  return tasks_->start(step, [session, name, params, confirmations](const TaskControl& control) {
+  const nlohmann::json step_params = withWebXr(name, params);
+  const bool started = tasks_->start(step, [session, name, params = step_params, confirmations](const TaskControl& control) {
     workflow::StepContext context;
     context.progress = control.progress;
     context.cancel = control.cancel;
@@ -415,6 +425,8 @@ bool MainWindow::runStep(const QString& step, const nlohmann::json& params) {
     outcome.outputs = result.outputs;
     return outcome;
   });
+  if (!started && webxr_on_ && !web_ && !navigating() && !startWindowWebXr()) stopWebXr();
+  return started;
 }
 
 void MainWindow::confirmStep() {
@@ -479,6 +491,8 @@ void MainWindow::onTaskFinished(const QString& name, const TaskOutcome& outcome)
   confirm_->hide();
   task_label_->clear();
   const std::string step = name.toStdString();
+  // An HMD step served the WebXR page; the window serves it again.
+  if (webxr_on_ && !web_ && !navigating() && !startWindowWebXr()) stopWebXr();
   if (outcome.cancelled) {
     setStepState(name, StepState::Cancelled, {});
     statusBar()->showMessage(tr("%1 cancelled").arg(name), 5000);

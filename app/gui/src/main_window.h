@@ -42,6 +42,10 @@ struct HologramModel;
 namespace mrsns::igtlink {
 class Server;
 }
+namespace mrsns::webxr {
+class WebXrHologramService;
+struct WebXrServiceOptions;
+}  // namespace mrsns::webxr
 
 namespace mrsns::gui {
 
@@ -124,6 +128,19 @@ class MainWindow : public QMainWindow {
   bool startHologramStream(int port, const std::string& client = "slicer");
   void stopHologramStream();
   [[nodiscard]] bool hologramStreaming() const { return hologram_port_ != 0; }
+
+  /// Serves the WebXR hologram client (a page the headset's browser opens, webxr::WebXrHologramService) on
+  /// `port` (0: a free one), on 127.0.0.1 or, `from_network`, every interface. Its address and pairing code
+  /// show in the function panel; the code and port stay the same until it is switched off, so a paired page
+  /// comes back by itself when live navigation takes the service over (the tools' transforms, the soft
+  /// tissue's vertices) and when an HMD step serves it (the cube, the prompts, the page's confirmation).
+  /// False, with a message, when it cannot be served.
+  bool startWebXr(int port, bool from_network = false);
+  void stopWebXr();
+  [[nodiscard]] bool webXrServing() const { return webxr_on_; }
+  /// The page's pairing code and the bound port (empty, 0 when off).
+  [[nodiscard]] std::string webXrPairingCode() const { return webxr_on_ ? webxr_code_ : std::string(); }
+  [[nodiscard]] int webXrPort() const { return webxr_on_ ? webxr_port_ : 0; }
 
   /// Renders the whole window (3D view included) into a PNG.
   bool saveScreenshot(const QString& png);
@@ -254,6 +271,19 @@ class MainWindow : public QMainWindow {
   std::string hologram_client_ = "slicer";  // and the headset client it is set up for
   bool startWindowStream(int port);
   void stopWindowStream();
+  // The WebXR client (webxr_control.cpp): served by the window, the navigation loop or an HMD step in turn.
+  std::unique_ptr<webxr::WebXrHologramService> web_;
+  bool webxr_on_ = false;
+  int webxr_port_ = 0;
+  std::string webxr_address_ = "127.0.0.1";
+  std::string webxr_code_;
+  [[nodiscard]] webxr::WebXrServiceOptions webXrOptions();
+  bool startWindowWebXr();
+  void stopWindowWebXr();
+  void showWebXrStatus(const QString& mode);
+  /// `params` with the WebXR page added for an HMD step (hmd-calibration, checkerboard-digitisation) while the
+  /// client is on; the window's service then makes way for the step's.
+  nlohmann::json withWebXr(const std::string& step, nlohmann::json params);
   [[nodiscard]] std::vector<tracking::HologramModel> hologramModels() const;
   /// The device name hologramModels() gives the scene mesh `scene_name` (empty when it is not streamed).
   [[nodiscard]] std::string hologramDeviceName(const std::string& scene_name) const;

@@ -12,6 +12,7 @@
 #include "mrsns/workflow/navigation.h"
 #include "mrsns/workflow/navigation_soft_tissue.h"
 #include "mrsns/workflow/session.h"
+#include "mrsns/webxr/webxr_hologram_service.h"
 #include "output_panel.h"
 #include "session_import.h"
 
@@ -92,6 +93,7 @@ bool MainWindow::startNavigation(workflow::NavigationOptions options) {
       stopWindowStream();
       setup.options.stream_holograms = false;  // started below, once the loop runs
     }
+    if (webxr_on_) stopWindowWebXr();  // the loop serves the page on the same port, with the same code
     live_->start(setup);
     if (!soft_tissue_missing.empty() && session_->shapeModel()) {
       std::string text;
@@ -111,12 +113,24 @@ bool MainWindow::startNavigation(workflow::NavigationOptions options) {
                                                            "switch the stream on again."));
       }
     }
+    if (webxr_on_) {
+      try {
+        live_->serveWebXr(hologramModels(), webXrOptions());
+        showWebXrStatus(tr("live navigation"));
+      } catch (const mrsns::Error& e) {
+        stopWebXr();
+        presentError(tr("WebXR client"), QString::fromStdString(e.what()) +
+                                             tr("\nNavigation runs without it; switch it on again."));
+      }
+    }
   } catch (const mrsns::Error& e) {
     function_->setLiveNavigation(false);
+    if (webxr_on_ && !web_ && !startWindowWebXr()) stopWebXr();
     presentError(tr("Cannot start navigation"), QString::fromStdString(e.what()));
     return false;
   } catch (const std::filesystem::filesystem_error& e) {
     function_->setLiveNavigation(false);
+    if (webxr_on_ && !web_ && !startWindowWebXr()) stopWebXr();
     presentError(tr("Cannot start navigation"),
                  tr("Cannot create the recording in the session folder: %1. Check its permissions and free space.")
                      .arg(QString::fromStdString(e.what())));
@@ -136,6 +150,7 @@ void MainWindow::stopNavigation() {
   function_->setLiveNavigation(false);
   // The stream goes on without the loop: the window serves the models again.
   if (hologram_port_ != 0 && !startWindowStream(hologram_port_)) hologram_port_ = 0;
+  if (webxr_on_ && !web_ && !startWindowWebXr()) stopWebXr();
   preparation_->setBusy(false);
   function_->setBusy(false);
   const bool ok = figures.value("batches", 0) > 0 && figures.value("recorder_error", std::string()).empty();
