@@ -470,8 +470,10 @@ StepResult runAcquiredHmdCalibration(Session& session, const Json& params, const
                                  "verify_s 0-600 s, max_spread_mm and max_view_disagreement_mm > 0");
     }
     // Where the headset shows the cube, in its own world frame: half a metre ahead of where its app started
-    // (a HoloLens app's world origin), unless the lab places it elsewhere.
-    s.hologram_T_marker.translation() = vectorParam(p, "hologram_position_mm", Eigen::Vector3d(0.0, 0.0, 500.0));
+    // (a HoloLens app's world origin: +z ahead in Unity; in a WebXR 'local' space -z is ahead), unless the lab
+    // places it elsewhere.
+    const double ahead_mm = p.integer("webxr_port", 0) > 0 ? -500.0 : 500.0;
+    s.hologram_T_marker.translation() = vectorParam(p, "hologram_position_mm", Eigen::Vector3d(0.0, 0.0, ahead_mm));
     // A headset sends confirmations and status, nothing large.
     const StepStreamAddress address = stepStreamAddress(kStep, p, 64 * 1024);
     s.endpoint = address.endpoint;
