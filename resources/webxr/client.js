@@ -266,19 +266,21 @@ function showPairingError(text) {
 
 function connect() {
   refused = false;
-  socket = new WebSocket(`wss://${location.host}/ws`);
-  socket.binaryType = 'arraybuffer';
-  socket.onopen = () => {
+  const ws = new WebSocket(`wss://${location.host}/ws`);
+  socket = ws;
+  ws.binaryType = 'arraybuffer';
+  ws.onopen = () => {
     socketOpen = true;
     retryDelay = 500;
-    socket.send(JSON.stringify({ type: 'pair', code }));
+    ws.send(JSON.stringify({ type: 'pair', code }));
     updateHud();
   };
-  socket.onmessage = (event) => {
+  ws.onmessage = (event) => {
     if (typeof event.data === 'string') onText(JSON.parse(event.data));
     else onBinary(event.data);
   };
-  socket.onclose = () => {
+  ws.onclose = () => {
+    if (ws !== socket) return;  // replaced by a new pairing from the form
     socketOpen = false;
     updateHud();
     if (refused) return;
@@ -328,8 +330,9 @@ $('pairing').addEventListener('submit', (event) => {
   event.preventDefault();
   code = $('code').value.trim();
   $('pairing-error').hidden = true;
-  if (socket) { refused = true; socket.close(); }
+  const previous = socket;
   connect();
+  if (previous) previous.close();
 });
 
 const Recognition = window.SpeechRecognition || window.webkitSpeechRecognition;

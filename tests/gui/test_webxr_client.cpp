@@ -13,6 +13,8 @@
 #include <QPushButton>
 #include <QSpinBox>
 #include <QTest>
+#include <atomic>
+#include <thread>
 
 #include "loopback_ports.h"
 #include "mrsns/igtlink/server.h"
@@ -54,6 +56,20 @@ PageView pairAndRead(std::uint16_t port, const std::string& code, int frames) {
   return view;
 }
 
+/// pairAndRead on a thread while the GUI's event loop turns (the window's service is updated from its timer).
+PageView pairWhileTheWindowRuns(int port, const std::string& code, int frames, int timeout_ms) {
+  std::atomic<bool> done{false};
+  PageView view;
+  std::thread page([&] {
+    view = pairAndRead(static_cast<std::uint16_t>(port), code, frames);
+    done = true;
+  });
+  const bool finished = mrsns::test::waitUntil([&] { return done.load(); }, timeout_ms);
+  page.join();
+  EXPECT_TRUE(finished) << "the page did not finish reading within " << timeout_ms << " ms";
+  return view;
+}
+
 TEST_F(WebXrClientTest, PanelShowsTheCodeAPagePairsAndNavigationTakesItOver) {
   if (!mrsns::test::haveSampleSession()) GTEST_SKIP() << "no bundled sample session";
   auto window = makeWindow();
@@ -81,15 +97,8 @@ TEST_F(WebXrClientTest, PanelShowsTheCodeAPagePairsAndNavigationTakesItOver) {
   const PageView wrong = pairAndRead(static_cast<std::uint16_t>(port), "000000", 5);
   EXPECT_FALSE(wrong.paired);
   EXPECT_EQ(wrong.meshes, 0);
-  std::atomic<bool> done{false};
-  PageView right;
-  std::thread page([&] {
-    right = pairAndRead(static_cast<std::uint16_t>(port), code, 40);
-    done = true;
-  });
-  // The window's service runs on the GUI's event loop (its timer): keep it turning while the page reads.
-  ASSERT_TRUE(mrsns::test::waitUntil([&] { return done.load(); }, 20000));
-  page.join();
+  // The window's service runs on the GUI's event loop (its timer): it keeps turning while the page reads.
+  const PageView right = pairWhileTheWindowRuns(port, code, 40, 20000);
   EXPECT_TRUE(right.paired);
   EXPECT_GE(right.meshes, 3) << "the sample session's vertebrae, vessel and screws";
 
@@ -98,27 +107,13 @@ TEST_F(WebXrClientTest, PanelShowsTheCodeAPagePairsAndNavigationTakesItOver) {
   options.robot.robot = "none";
   ASSERT_TRUE(window->startNavigation(options)) << messages();
   EXPECT_EQ(window->webXrPairingCode(), code);
-  done = false;
-  PageView live;
-  std::thread live_page([&] {
-    live = pairAndRead(static_cast<std::uint16_t>(port), code, 400);
-    done = true;
-  });
-  ASSERT_TRUE(mrsns::test::waitUntil([&] { return done.load(); }, 30000));
-  live_page.join();
+  const PageView live = pairWhileTheWindowRuns(port, code, 400, 30000);
   EXPECT_TRUE(live.paired);
   EXPECT_GE(live.meshes, 3);
   EXPECT_EQ(live.statuses, live.meshes) << "each model's tracking state from the navigation loop";
   window->stopNavigation();
   EXPECT_TRUE(window->webXrServing()) << "the window serves the page again after navigation";
-  done = false;
-  PageView after;
-  std::thread after_page([&] {
-    after = pairAndRead(static_cast<std::uint16_t>(port), code, 40);
-    done = true;
-  });
-  ASSERT_TRUE(mrsns::test::waitUntil([&] { return done.load(); }, 20000));
-  after_page.join();
+  const PageView after = pairWhileTheWindowRuns(port, code, 40, 20000);
   EXPECT_TRUE(after.paired);
 
   QTest::mouseClick(toggle, Qt::LeftButton);

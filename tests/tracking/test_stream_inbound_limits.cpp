@@ -21,6 +21,7 @@
 #include "mrsns/igtlink/crc64.h"
 #include "mrsns/tracking/hologram_streamer.h"
 #include "mrsns/tracking/simulated_source.h"
+#include "resident_memory.h"
 #include "tracking_test_util.h"
 
 namespace mrsns::tracking {
@@ -50,15 +51,6 @@ SendResult sendUntil(int fd, std::span<const std::uint8_t> bytes, const std::ato
     return SendResult::kClosedByPeer;
   }
   return SendResult::kSent;
-}
-
-// Resident memory of this process (server, good client and attackers alike;
-// the attackers reuse small buffers, so growth is the server's).
-double residentMegabytes() {
-  std::ifstream statm("/proc/self/statm");
-  long pages_total = 0, pages_resident = 0;
-  statm >> pages_total >> pages_resident;
-  return static_cast<double>(pages_resident) * static_cast<double>(::sysconf(_SC_PAGESIZE)) / 1e6;
 }
 
 // A header asking for a body of `body_size` bytes, then that many bytes in
@@ -123,12 +115,12 @@ TEST(StreamInboundLimits, AMessageOverAFewKilobytesIsRefusedAtItsHeader) {
   QuietLog quiet;
   OneModelStream stream;
   const std::atomic<bool> never{false};
-  const double idle_mb = residentMegabytes();
+  const double idle_mb = mrsns::test::residentMegabytes();
   const std::uint64_t sent = sendHugeMessage(stream.server->port(), "POLYDATA", "Huge", 100'000'000, never);
   ASSERT_TRUE(waitFor([&] { return stream.server->stats().clients_closed_for_protocol_errors == 1; }));
   // Disconnected at the header: what got out before the reset sat in the socket buffers, never in the server.
   EXPECT_LT(sent, 100'000'000U);
-  EXPECT_LT(residentMegabytes() - idle_mb, 20.0);
+  EXPECT_LT(mrsns::test::residentMegabytes() - idle_mb, 20.0);
 
   // Just over the limit is refused too; at the limit is read (and ignored: the stream is send-only).
   std::vector<std::uint8_t> at_limit_body(kMaxClientMessageBodyBytes, 0);
@@ -217,13 +209,13 @@ TEST(StreamInboundLimits, FloodsAndHugeMessagesFromSeveralClientsLeaveTheGoodHea
   ASSERT_TRUE(waitFor([&] { return streamer.readyClients() == 1; }));
   source.start();
   std::this_thread::sleep_for(std::chrono::milliseconds(200));
-  const double idle_mb = residentMegabytes();
+  const double idle_mb = mrsns::test::residentMegabytes();
 
   std::atomic<bool> stop{false};
   std::atomic<double> peak_mb{idle_mb};
   std::thread sampler([&] {
     while (!stop.load()) {
-      peak_mb = std::max(peak_mb.load(), residentMegabytes());
+      peak_mb = std::max(peak_mb.load(), mrsns::test::residentMegabytes());
       std::this_thread::sleep_for(std::chrono::milliseconds(5));
     }
   });

@@ -65,7 +65,7 @@ TEST(WebXrBrowser, PairsReceivesMovesConfirmsShowsLossAndReconnects) {
   scene.moveVertebra(0);
   service->update(unixTimeSeconds());
 
-  test::HeadlessChromium browser(chromium, scratch / "profile", 900, 700);
+  test::HeadlessChromium browser(chromium, scratch / "profile", 800, 500);
 
   // Without the code the page shows the pairing form and receives nothing.
   browser.open(base);

@@ -1,8 +1,8 @@
 // The WebXR server's admission and limits, from a TLS client: only its own
 // files, nothing before the pairing code, wrong codes refused and then locked
 // out, oversized and binary messages dropped from the frame header, and a
-// flood of messages from several paired clients held to the rate limit while
-// a good client keeps its stream.
+// flood of messages and of 100 MB messages from several paired clients held
+// to the limits while a good client keeps its stream and memory stays bounded.
 #include <gtest/gtest.h>
 
 #include <atomic>
@@ -11,6 +11,7 @@
 
 #include "mrsns/core/log.h"
 #include "mrsns/webxr/webxr_server.h"
+#include "resident_memory.h"
 #include "test_data.h"
 #include "tls_test_client.h"
 #include "wait_for.h"
@@ -127,6 +128,24 @@ TEST(WebXrServerLimits, OversizedAndBinaryMessagesDropTheClient) {
   EXPECT_EQ(messages.load(), 0);
 }
 
+/// A paired page sending 100 MB messages, one after another, until told to stop.
+int hugeMessages(std::uint16_t port, const std::atomic<bool>& stop) {
+  int refused = 0;
+  std::vector<std::uint8_t> header{0x81, 0xFF};
+  for (int s = 56; s >= 0; s -= 8) header.push_back(static_cast<std::uint8_t>((100ULL << 20) >> s));
+  header.insert(header.end(), {9, 8, 7, 6});
+  const std::vector<std::uint8_t> body(1 << 20, 0x41);
+  while (!stop) {
+    test::TlsTestClient client(port);
+    if (!client.upgrade() || !client.sendText(pair("246810"))) return refused;
+    client.sendRaw(header);
+    for (int mb = 0; mb < 100 && !stop && client.sendRaw(body); ++mb) {
+    }
+    ++refused;
+  }
+  return refused;
+}
+
 TEST(WebXrServerLimits, AFloodIsHeldToTheRateAndTheGoodPageKeepsItsStream) {
   auto options = serverOptions();
   options.max_client_messages_per_second = 200.0;
@@ -142,9 +161,12 @@ TEST(WebXrServerLimits, AFloodIsHeldToTheRateAndTheGoodPageKeepsItsStream) {
 
   constexpr int kFlooders = 3;
   constexpr double kFloodSeconds = 2.0;
+  const double idle_mb = test::residentMegabytes();
   std::atomic<bool> stop{false};
   std::atomic<std::uint64_t> sent{0};
+  std::atomic<int> huge_refused{0};
   std::vector<std::thread> flooders;
+  for (int h = 0; h < 2; ++h) flooders.emplace_back([&] { huge_refused += hugeMessages(server.port(), stop); });
   for (int f = 0; f < kFlooders; ++f) {
     flooders.emplace_back([&] {
       test::TlsTestClient client(server.port());
@@ -164,7 +186,9 @@ TEST(WebXrServerLimits, AFloodIsHeldToTheRateAndTheGoodPageKeepsItsStream) {
   });
   const auto start = Clock::now();
   good.setTimeout(1.0);
+  double peak_mb = idle_mb;
   while (Clock::now() - start < std::chrono::duration<double>(kFloodSeconds)) {
+    peak_mb = std::max(peak_mb, test::residentMegabytes());
     const auto frame = good.readFrame();
     ASSERT_TRUE(frame) << "the good page lost its stream during the flood";
     const auto now = Clock::now();
@@ -179,12 +203,15 @@ TEST(WebXrServerLimits, AFloodIsHeldToTheRateAndTheGoodPageKeepsItsStream) {
   const double elapsed = std::chrono::duration<double>(Clock::now() - start).count();
   std::sort(gaps_ms.begin(), gaps_ms.end());
   std::cout << "[ webxr ] flood: " << sent.load() << " messages written by " << kFlooders << " clients, "
-            << received.load() << " read; good page: " << gaps_ms.size() << " poses, largest gap " << gaps_ms.back()
-            << " ms" << std::endl;
+            << received.load() << " read; " << huge_refused.load()
+            << " messages of 100 MB refused; good page: " << gaps_ms.size() << " poses, largest gap " << gaps_ms.back()
+            << " ms; memory " << peak_mb - idle_mb << " MB above idle at the peak" << std::endl;
   // The token bucket: at most a bucket (one second's worth) plus the rate per client over the run.
   EXPECT_LE(static_cast<double>(received.load()), kFlooders * options.max_client_messages_per_second * (elapsed + 1.5));
   EXPECT_GT(gaps_ms.size(), 0.7 * kFloodSeconds * 100);
   EXPECT_LT(gaps_ms.back(), 250.0);
+  EXPECT_GE(huge_refused.load(), 2);
+  EXPECT_LT(peak_mb - idle_mb, 100.0) << "the server stored what it should have refused";
 }
 
 }  // namespace

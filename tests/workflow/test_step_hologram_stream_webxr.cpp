@@ -12,6 +12,7 @@
 #include "test_data.h"
 #include "tls_test_client.h"
 #include "wait_for.h"
+#include "webxr_test_scene.h"
 
 namespace mrsns::workflow::detail {
 namespace {
@@ -20,15 +21,6 @@ using namespace std::chrono_literals;
 
 const std::initializer_list<const char*> kKnown = {"hmd_address",   "hmd_port",   "unity",        "webxr_port",
                                                    "webxr_address", "webxr_code", "webxr_tls_dir"};
-
-TriangleMesh tetrahedron() {
-  TriangleMesh mesh;
-  mesh.vertices.resize(4, 3);
-  mesh.vertices << 0, 0, 0, 30, 0, 0, 0, 30, 0, 0, 0, 30;
-  mesh.faces.resize(4, 3);
-  mesh.faces << 0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3;
-  return mesh;
-}
 
 TEST(StepHologramStreamWebXr, APairedPageIsTheStepsHeadset) {
   const int hmd_port = test::closedPort();
@@ -52,8 +44,10 @@ TEST(StepHologramStreamWebXr, APairedPageIsTheStepsHeadset) {
     if (text == "select gesture") ++confirmations;
   };
   auto repository = std::make_shared<TransformRepository>();
-  StepHologramStream stream("hmd-calibration", address, repository,
-                            {tracking::HologramModel{"CalibrationCube", tetrahedron(), "Hologram"}}, options);
+  StepHologramStream stream(
+      "hmd-calibration", address, repository,
+      {tracking::HologramModel{"CalibrationCube", test::boxMesh({30.0, 30.0, 30.0}, {0.0, 0.0, 0.0}), "Hologram"}},
+      options);
   stream.streamer().setPrompt("front view: line up the cube with its hologram, hold it still and confirm");
   EXPECT_EQ(stream.streamer().readyClients(), 0U);
   {

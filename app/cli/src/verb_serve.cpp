@@ -174,7 +174,6 @@ std::unique_ptr<webxr::WebXrHologramService> makeWebXr(const ServeOptions& o,
   if (!o.webxr_code.empty()) web.server.pairing_code = o.webxr_code;
   web.stream.hologram_frame = stream_options.hologram_frame;
   web.stream.forward_transforms = o.forward_tools ? stream_options.forward_transforms : std::vector<std::string>{};
-  web.stream.on_confirmation = stream_options.on_confirmation;
   return std::make_unique<webxr::WebXrHologramService>(std::move(repository), std::move(models), std::move(web));
 }
 
@@ -240,11 +239,6 @@ Report run(const ServeOptions& o) {
   if (o.igtl_version != 0) {
     stream_options.version = o.igtl_version == 1 ? igtlink::HeaderVersion::kV1 : igtlink::HeaderVersion::kV2;
   }
-  std::atomic<std::uint64_t> confirmations{0};
-  stream_options.on_confirmation = [&confirmations](igtlink::ClientId, const std::string& text) {
-    ++confirmations;
-    std::cerr << "mrsns-cli serve: confirmation from a headset: " << text.substr(0, 80) << std::endl;
-  };
   tracking::HologramStreamer streamer(server, repository, models, stream_options);
   std::unique_ptr<webxr::WebXrHologramService> web = makeWebXr(o, repository, models, stream_options);
   source->setUpdateCallback([&streamer, &web](std::span<const tracking::ToolUpdate> updates) {
@@ -303,7 +297,6 @@ Report run(const ServeOptions& o) {
   report.json["statuses_queued"] = stream_stats.statuses_queued;
   report.json["client_messages_ignored"] = stream_stats.client_messages_ignored;
   report.json["malformed_messages"] = server_stats.malformed_messages;
-  report.json["confirmations"] = confirmations.load();
   if (web) report.json["webxr"] = webXrReport(*web);
   report.text = "served " + std::to_string(server_stats.messages_sent) + " messages to " +
                 std::to_string(server_stats.connections_accepted) + " client(s) in " + std::to_string(elapsed()) +

@@ -212,7 +212,7 @@ struct WebXrServer::Impl : std::enable_shared_from_this<WebXrServer::Impl> {
     void readFrames() {
       auto self = shared_from_this();
       stream.async_read_some(asio::buffer(buffer), [self](const asio::error_code& ec, std::size_t n) {
-        if (ec) {
+        if (ec || self->closed) {
           self->close();
           return;
         }
@@ -355,7 +355,8 @@ struct WebXrServer::Impl : std::enable_shared_from_this<WebXrServer::Impl> {
       writing = true;
       auto self = shared_from_this();
       asio::async_write(stream, asio::buffer(*queue.front()), [self](const asio::error_code& ec, std::size_t n) {
-        if (ec) {
+        // Closed meanwhile (the page hung up while this was on its way): the queue is gone with it.
+        if (ec || self->closed) {
           self->close();
           return;
         }

@@ -54,7 +54,7 @@ struct WebXrServerOptions {
   std::size_t max_clients = 8;       ///< paired clients at once
   std::size_t max_client_message_bytes = 4096;
   double max_client_messages_per_second = 200.0;
-  std::size_t max_queued_bytes = 256U << 20;
+  std::size_t max_queued_bytes = 64U << 20;
   double handshake_timeout_s = 10.0;  ///< TLS, the HTTP request and the pairing
   int max_failed_pairings = 10;
   double pairing_lockout_s = 60.0;
