@@ -526,6 +526,10 @@ void WebXrServer::stop() {
   closed->get_future().wait_for(std::chrono::seconds(2));
   impl_->io.stop();
   impl_->thread.join();
+  // The aborted operations' handlers still hold their sessions (and the accept handler this Impl): let them run
+  // and let go, or each stop would keep a server's worth of memory.
+  impl_->io.restart();
+  impl_->io.poll();
 }
 
 std::uint16_t WebXrServer::port() const {
@@ -554,7 +558,9 @@ WebXrServerStats WebXrServer::stats() const {
 void WebXrServer::send(WebXrClientId client, WsFrameBytes frame) {
   asio::post(impl_->io, [self = impl_, client, frame = std::move(frame)]() mutable {
     const auto it = self->sessions.find(client);
-    if (it != self->sessions.end() && it->second->paired) it->second->queueBytes(std::move(frame));
+    if (it == self->sessions.end()) return;
+    const auto session = it->second;  // a queue over its limit closes the session, which erases this entry
+    if (session->paired) session->queueBytes(std::move(frame));
   });
 }
 
