@@ -146,9 +146,8 @@ void validate(const ServeOptions& o) {
   if (o.webxr_port >= 0 && o.webxr_port == o.port && o.port != 0) {
     throw InvalidArgumentError("--webxr-port and --port are the same port: give the WebXR client another one");
   }
-  if (!o.webxr_code.empty() &&
-      (o.webxr_code.size() < 6 || o.webxr_code.find_first_not_of("0123456789") != std::string::npos)) {
-    throw InvalidArgumentError("--webxr-code must be at least 6 digits");
+  if (!o.webxr_code.empty() && !webxr::isValidPairingCode(o.webxr_code)) {
+    throw InvalidArgumentError("--webxr-code must be 6 to 12 digits");
   }
   for (const auto& m : o.models) {
     if (!std::filesystem::is_regular_file(m)) {
@@ -362,7 +361,7 @@ void registerServeVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs) {
                   "port, e.g. 8443 (0 = any free port); its URL and pairing code are printed at start");
   sub->add_option("--webxr-bind", o->webxr_bind, "address of the WebXR client's server (default: --bind)");
   sub->add_option("--webxr-code", o->webxr_code,
-                  "the WebXR pairing code (at least 6 digits; default: a new random code at each start)");
+                  "the WebXR pairing code (6 to 12 digits; default: a new random code at each start)");
   sub->add_option("--webxr-tls-dir", o->webxr_tls_dir,
                   "folder of the WebXR server's certificate, made there on first use (default: "
                   "~/.config/mrsns/webxr-tls)");

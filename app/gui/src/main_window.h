@@ -279,6 +279,7 @@ class MainWindow : public QMainWindow {
   std::string webxr_code_;
   [[nodiscard]] webxr::WebXrServiceOptions webXrOptions();
   bool startWindowWebXr();
+  bool startLoopWebXr();
   void stopWindowWebXr();
   void showWebXrStatus(const QString& mode);
   /// `params` with the WebXR page added for an HMD step (hmd-calibration, checkerboard-digitisation) while the

@@ -12,7 +12,6 @@
 #include "mrsns/workflow/navigation.h"
 #include "mrsns/workflow/navigation_soft_tissue.h"
 #include "mrsns/workflow/session.h"
-#include "mrsns/webxr/webxr_hologram_service.h"
 #include "output_panel.h"
 #include "session_import.h"
 
@@ -113,16 +112,7 @@ bool MainWindow::startNavigation(workflow::NavigationOptions options) {
                                                            "switch the stream on again."));
       }
     }
-    if (webxr_on_) {
-      try {
-        live_->serveWebXr(hologramModels(), webXrOptions());
-        showWebXrStatus(tr("live navigation"));
-      } catch (const mrsns::Error& e) {
-        stopWebXr();
-        presentError(tr("WebXR client"), QString::fromStdString(e.what()) +
-                                             tr("\nNavigation runs without it; switch it on again."));
-      }
-    }
+    if (webxr_on_ && !startLoopWebXr()) stopWebXr();  // navigation runs without it
   } catch (const mrsns::Error& e) {
     function_->setLiveNavigation(false);
     if (webxr_on_ && !web_ && !startWindowWebXr()) stopWebXr();

@@ -51,22 +51,23 @@ bool MainWindow::startWebXr(int port, bool from_network) {
   webxr_port_ = port;
   webxr_code_ = webxr::makePairingCode();
   webxr_on_ = true;
-  const bool ok = navigating() ? [this] {
-    try {
-      web_.reset();
-      auto& service = live_->serveWebXr(hologramModels(), webXrOptions());
-      webxr_port_ = service.server().port();
-      showWebXrStatus(tr("live navigation"));
-      return true;
-    } catch (const mrsns::Error& e) {
-      presenter_->present(UserMessage{MessageKind::Error, tr("WebXR client"),
-                                      QString::fromStdString(e.what()) + tr("\nChoose another port if this one is in use.")});
-      return false;
-    }
-  }()
-                               : startWindowWebXr();
+  const bool ok = navigating() ? startLoopWebXr() : startWindowWebXr();
   if (!ok) stopWebXr();
   return ok;
+}
+
+bool MainWindow::startLoopWebXr() {
+  try {
+    auto& service = live_->serveWebXr(hologramModels(), webXrOptions());
+    webxr_port_ = service.server().port();  // port 0 picks one; the same one from now on
+  } catch (const mrsns::Error& e) {
+    presenter_->present(
+        UserMessage{MessageKind::Error, tr("WebXR client"),
+                    QString::fromStdString(e.what()) + tr("\nChoose another port if this one is in use.")});
+    return false;
+  }
+  showWebXrStatus(tr("live navigation"));
+  return true;
 }
 
 bool MainWindow::startWindowWebXr() {

@@ -150,13 +150,7 @@ struct HologramRelay::Impl {
   void onStreamConnection(bool connected) {
     std::lock_guard lock(mutex);
     stream_connected = connected;
-    if (connected) {
-      // The streamer sends the whole scene again on connect.
-      meshes.clear();
-      vertices.clear();
-      transforms.clear();
-      statuses.clear();
-    }
+    if (connected) forgetScene();  // the streamer sends the whole scene again on connect
     server.broadcast(streamState());
   }
 
@@ -193,6 +187,10 @@ struct HologramRelay::Impl {
       return;
     }
     stream_connected = false;
+    forgetScene();
+  }
+
+  void forgetScene() {  // mutex held
     meshes.clear();
     vertices.clear();
     transforms.clear();

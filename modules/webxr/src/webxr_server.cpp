@@ -89,6 +89,10 @@ std::string makePairingCode(int digits) {
   return code;
 }
 
+bool isValidPairingCode(std::string_view code) {
+  return code.size() >= 6 && code.size() <= 12 && code.find_first_not_of("0123456789") == std::string_view::npos;
+}
+
 struct WebXrServer::Impl : std::enable_shared_from_this<WebXrServer::Impl> {
   struct Session : std::enable_shared_from_this<Session> {
     Session(Impl& owner, asio::ip::tcp::socket socket, WebXrClientId client)
@@ -456,7 +460,9 @@ struct WebXrServer::Impl : std::enable_shared_from_this<WebXrServer::Impl> {
 };
 
 WebXrServer::WebXrServer(WebXrServerOptions options) {
-  if (options.pairing_code.size() < 6) throw InvalidArgumentError("the WebXR pairing code needs at least 6 characters");
+  if (!isValidPairingCode(options.pairing_code)) {
+    throw InvalidArgumentError("the WebXR pairing code must be 6 to 12 digits");
+  }
   if (!fs::is_regular_file(options.web_root / "index.html")) {
     throw InvalidArgumentError("the WebXR client's page is not in " + options.web_root.string() +
                                " (index.html missing: is MR-SNS installed completely?)");

@@ -29,8 +29,8 @@ StepStreamAddress stepStreamAddress(const std::string& step, const Params& p, st
     a.webxr_address = p.text("webxr_address", a.server.bind_address);
     a.webxr_code = p.text("webxr_code", "");
     if (a.webxr_code.empty()) a.webxr_code = webxr::makePairingCode();
-    if (a.webxr_code.size() < 6 || a.webxr_code.find_first_not_of("0123456789") != std::string::npos) {
-      throw InvalidArgumentError(step + ": webxr_code must be at least 6 digits");
+    if (!webxr::isValidPairingCode(a.webxr_code)) {
+      throw InvalidArgumentError(step + ": webxr_code must be 6 to 12 digits");
     }
     a.webxr_tls_dir = p.text("webxr_tls_dir", webxr::defaultCertificateDirectory().string());
     a.endpoint += " or the WebXR page https://" + a.webxr_address + ":" + std::to_string(a.webxr_port) +

@@ -50,7 +50,7 @@ struct WebXrServerOptions {
   std::filesystem::path web_root;    ///< index.html, client.js, style.css
   std::filesystem::path three_root;  ///< Debian's libjs-three (/usr/share/javascript/three)
   TlsCertificate certificate;        ///< ensureSelfSignedCertificate
-  std::string pairing_code;          ///< at least 6 characters
+  std::string pairing_code;          ///< isValidPairingCode
   std::size_t max_clients = 8;       ///< paired clients at once
   std::size_t max_client_message_bytes = 4096;
   double max_client_messages_per_second = 200.0;
@@ -78,7 +78,7 @@ class WebXrServer {
   using MessageHandler = std::function<void(WebXrClientId, const std::string& text)>;
   using DisconnectHandler = std::function<void(WebXrClientId)>;
 
-  /// Throws InvalidArgumentError for a pairing code under 6 characters, a
+  /// Throws InvalidArgumentError for a pairing code that is not isValidPairingCode, a
   /// missing web_root/index.html or three.js, a certificate without files.
   explicit WebXrServer(WebXrServerOptions options);
   ~WebXrServer();
@@ -112,5 +112,8 @@ class WebXrServer {
 
 /// A pairing code of `digits` decimal digits from OpenSSL's random generator.
 std::string makePairingCode(int digits = 6);
+
+/// What a pairing code must be (the page's field takes digits): at least 6 digits, at most 12.
+bool isValidPairingCode(std::string_view code);
 
 }  // namespace mrsns::webxr
