@@ -63,7 +63,7 @@ TEST(Steps, EverySimulatedStepRunsWithProgressAndRecordsFigures) {
       {"registration", nlohmann::json::object()},
       {"hmd-calibration", nlohmann::json::object()},
       {"navigation", {{"duration_s", 0.5}, {"deformation_cases", 1}, {"deformation_frames", 20}}},
-      {"robot-placement", nlohmann::json::object()},
+      {"robot-placement", {{"paths", {0}}}},
   };
   for (const auto& [name, params] : runs) {
     SCOPED_TRACE(name);
@@ -125,9 +125,20 @@ TEST(Steps, EverySimulatedStepRunsWithProgressAndRecordsFigures) {
   }
   EXPECT_LT(session.step("robot-calibration")["figures"]["tre_at_patient_mm"].get<double>(), 1.5);
   EXPECT_LT(session.step("hmd-calibration")["figures"]["tre_at_patient_mm"].get<double>(), 3.0);
+  // The in-process arm drove the first planned path to its end and retracted; nothing here knows a truth, so
+  // the figures are what the workstation commanded (the room's scorer judges a placement in mrsns-sim).
   const auto placement = session.step("robot-placement")["figures"];
-  EXPECT_EQ(placement["paths"].size(), 4u);
-  EXPECT_LT(placement["target_error_mm"]["max"].get<double>(), 3.0);
+  ASSERT_EQ(placement["paths"].size(), 1u);
+  EXPECT_EQ(placement["placed"], 1);
+  EXPECT_TRUE(placement["simulated"].get<bool>());
+  const auto& placed = placement["paths"][0];
+  EXPECT_EQ(placed["outcome"], "placed") << placed.dump();
+  EXPECT_EQ(placed["name"], session.plans()[0].name);
+  // The guidance advances to the planned depth (its end condition), within one control cycle's advance.
+  EXPECT_NEAR(placed["depth_reached_mm"].get<double>(), placed["planned_depth_mm"].get<double>(), 0.1);
+  EXPECT_LT(placed["utc_start"].get<double>(), placed["utc_aligned"].get<double>());
+  EXPECT_LT(placed["utc_aligned"].get<double>(), placed["utc_path_finished"].get<double>());
+  EXPECT_FALSE(placed.contains("utc_stop"));
   const auto nav = session.step("navigation")["figures"];
   EXPECT_GT(nav["batches"].get<int>(), 5);
   EXPECT_EQ(nav["frames_in_file"], nav["batches"]) << "every batch recorded after a clean stop";

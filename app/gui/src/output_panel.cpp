@@ -122,7 +122,7 @@ OutputPanel::OutputPanel(QWidget* parent) : QWidget(parent) {
       {"hmd", tr("HMD calibration")},
       {"deformation", tr("Soft-tissue model SD")},
       {"tip_to_tissue", tr("Drill tip → soft tissue")},
-      {"placement", tr("Screw placement (target)")},
+      {"placement", tr("Screw placement")},
       {"supervisor", tr("Supervisor")},
       {"latency", tr("Latency")},
   };
@@ -328,7 +328,12 @@ void OutputPanel::headlineFromFigures(const std::string& step, const nlohmann::j
     showMm(QStringLiteral("hmd"), {"view_spread.at_cube_rms_mm", "tre_at_patient_mm", "rigid_rms_mm"},
            {"rms", "error"});
   } else if (step == "robot-placement") {
-    showMm(QStringLiteral("placement"), {"target_error_mm.mean"}, {"target_error", "error"});
+    // What the workstation knows: how many planned screws the arm drilled to their end (where they truly went is
+    // measured outside it, on a phantom's CT or by mrsns-sim score).
+    if (figures.is_object() && figures.contains("placed") && figures.contains("planned")) {
+      const int placed = figures["placed"].get<int>(), planned = figures["planned"].get<int>();
+      setReadout(QStringLiteral("placement"), tr("%1 of %2 placed").arg(placed).arg(planned), placed < planned ? 2 : 0);
+    }
   }
   showMm(QStringLiteral("deformation"), {"deformation.posterior_sd_mean_mm"}, {"posterior_sd_mean"});
   showMm(QStringLiteral("tip_to_tissue"), {}, {"tissue", "tip_distance"});

@@ -539,7 +539,10 @@ std::string World::staticTruthJson() const {
     j["image_size_px"] = {scenario_.ultrasound.width, scenario_.ultrasound.height};
     j["video_lag_s"] = scenario_.ultrasound.video_lag_s;
   }
-  if (scenario_.patient) j["CTToReference"] = poseJson(scenario_.patient->reference_T_ct);
+  if (scenario_.patient) {
+    j["CTToReference"] = poseJson(scenario_.patient->reference_T_ct);
+    j["patient_reference_tool"] = scenario_.patient->reference_tool;
+  }
   if (scenario_.nwire_phantom) {
     j["PhantomToReference"] = poseJson(scenario_.nwire_phantom->reference_T_phantom);
     nlohmann::json ends = nlohmann::json::array();
@@ -553,6 +556,7 @@ std::string World::staticTruthJson() const {
     j["MarkerToFlange"] = poseJson(scenario_.robot.flange_T_marker);
     j["drill_tip_flange_mm"] = {scenario_.robot.drill_tip_flange.x(), scenario_.robot.drill_tip_flange.y(),
                                 scenario_.robot.drill_tip_flange.z()};
+    j["robot_marker_tool"] = scenario_.robot.marker_tool;
   }
   nlohmann::json tips = nlohmann::json::object();
   nlohmann::json shafts = nlohmann::json::object();

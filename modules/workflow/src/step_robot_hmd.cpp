@@ -1,6 +1,6 @@
-// Robot calibration, HMD calibration and robot-assisted placement steps,
-// with the robot and the HMD simulated (seeded), through the same chain of
-// transforms the real devices use.
+// Robot calibration and HMD calibration steps with the robot and the HMD
+// simulated in-process (seeded), through the same chain of transforms the
+// real devices use.
 #include <sstream>
 
 #include "module_trials.h"
@@ -14,23 +14,6 @@
 namespace mrsns::workflow::detail {
 
 namespace {
-
-Eigen::Isometry3d isometry(const Eigen::Matrix4d& m) {
-  Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
-  t.matrix() = m;
-  return t;
-}
-
-Eigen::Isometry3d recorded(const Session& session, const std::string& step, const std::string& group,
-                           const std::string& name) {
-  const auto entry = session.step(step);
-  if (entry.is_null() || entry.value("status", "") != "ok" || !entry["figures"].contains(group) ||
-      !entry["figures"][group].contains(name)) {
-    throw InvalidArgumentError("this step needs '" + step + "' to have run successfully first (no " + name +
-                               " in the session): run it, then try again");
-  }
-  return isometry(matrixFromJson(entry["figures"][group][name], step + "." + name));
-}
 
 // The simulated tracker's patient reference marker (see devices.cpp).
 Eigen::Isometry3d trackerTPatient() {
@@ -189,101 +172,6 @@ StepResult runHmdCalibration(Session& session, const Json& params, const StepCon
   }
   if (figures.contains("checkerboard_trial")) {
     s << "; checkerboard RPEE " << figures["checkerboard_trial"]["rpee_mean_mm"].get<double>() << " mm";
-  }
-  result.summary = s.str();
-  return result;
-}
-
-StepResult runRobotPlacement(Session& session, const Json& params, const StepContext& context) {
-  const Params p("robot-placement", params, {"seed", "robot_accuracy_mm", "tracker_noise_mm", "placement_trials"});
-  const auto seed = static_cast<std::uint64_t>(p.integer("seed", 1));
-  const double robot_accuracy = p.number("robot_accuracy_mm", 0.3);
-  const double tracker_noise = p.number("tracker_noise_mm", 0.25);
-  const int placement_trials = p.integer("placement_trials", 2);
-  if (placement_trials < 0) throw InvalidArgumentError("robot-placement: placement_trials must be >= 0 (0 skips)");
-  const Eigen::Isometry3d est_patient_T_ct = recorded(session, "registration", "transforms", "CTToPatient");
-  // A registration acquired from the devices (live or a recording) carries no truth: the placement then
-  // measures the robot's chain alone, and mrsns-sim score judges the registration against the truth.
-  const auto reg_figures = session.step("registration")["figures"];
-  const bool registration_simulated = reg_figures.contains("simulation_truth");
-  const Eigen::Isometry3d true_patient_T_ct =
-      registration_simulated ? recorded(session, "registration", "simulation_truth", "CTToPatient")
-                             : est_patient_T_ct;
-  const Eigen::Isometry3d est_tracker_T_base =
-      recorded(session, "robot-calibration", "transforms", "RobotBaseToTracker");
-  const bool robot_simulated = session.step("robot-calibration")["figures"].contains("simulation_truth");
-  const Eigen::Isometry3d true_tracker_T_base =
-      robot_simulated ? recorded(session, "robot-calibration", "simulation_truth", "RobotBaseToTracker")
-                      : est_tracker_T_base;
-  const auto paths = session.plans();
-  if (paths.empty()) {
-    throw InvalidArgumentError("robot-placement: the session has no planned screw: plan them first (plan-screw, "
-                               "import-plan)");
-  }
-  Simulation sim(seed * 32452843 + 17);
-  std::vector<double> entry_errors, target_errors, angle_errors;
-  Json per_path = Json::array();
-  std::size_t i = 0;
-  for (const auto& path : paths) {
-    checkCancel(context);
-    context.report(0.1 + 0.8 * static_cast<double>(i++) / static_cast<double>(paths.size()), "placing " + path.name);
-    const Eigen::Vector3d entry = path.entry;
-    const Eigen::Vector3d target = path.target;
-    // Chain Eq. 4: CT -> patient (registration) -> tracker (live patient
-    // marker, noisy) -> robot base (calibration); the robot goes where the
-    // estimated chain says, the truth places the guide.
-    Eigen::Isometry3d tracker_T_patient_seen = trackerTPatient();
-    tracker_T_patient_seen.translation() += sim.noise(tracker_noise);
-    const Eigen::Isometry3d base_T_ct_est = est_tracker_T_base.inverse() * tracker_T_patient_seen * est_patient_T_ct;
-    const Eigen::Isometry3d ct_T_base_true =
-        (true_tracker_T_base.inverse() * trackerTPatient() * true_patient_T_ct).inverse();
-    const Eigen::Vector3d placed_entry = ct_T_base_true * (base_T_ct_est * entry + sim.noise(robot_accuracy));
-    const Eigen::Vector3d placed_target = ct_T_base_true * (base_T_ct_est * target + sim.noise(robot_accuracy));
-    entry_errors.push_back((placed_entry - entry).norm());
-    target_errors.push_back((placed_target - target).norm());
-    const double cosine = (placed_target - placed_entry).normalized().dot((target - entry).normalized());
-    angle_errors.push_back(std::acos(std::clamp(cosine, -1.0, 1.0)) * 180.0 / M_PI);
-    per_path.push_back({{"name", path.name},
-                        {"entry_error_mm", entry_errors.back()},
-                        {"target_error_mm", target_errors.back()},
-                        {"angle_error_deg", angle_errors.back()},
-                        // In the phantom's CT frame, for the snapshot of achieved vs planned paths.
-                        {"placed_entry_ct", {placed_entry.x(), placed_entry.y(), placed_entry.z()}},
-                        {"placed_target_ct", {placed_target.x(), placed_target.y(), placed_target.z()}}});
-  }
-  StepResult result;
-  result.ok = !paths.empty();
-  result.figures = {{"paths", per_path},
-                    {"entry_error_mm", statsJson(entry_errors)},
-                    {"target_error_mm", statsJson(target_errors)},
-                    {"angle_error_deg", statsJson(angle_errors)},
-                    {"noise_model", {{"robot_accuracy_rms_mm", robot_accuracy}, {"tracker_rms_mm", tracker_noise}}},
-                    {"robot", "transform chain of this session (Eq. 4) with a simulated robot"},
-                    {"registration_error",
-                     registration_simulated
-                         ? "included (the simulated registration's own patient)"
-                         : "not included: the registration was acquired from the devices and has no truth here "
-                           "(mrsns-sim score judges it)"},
-                    {"robot_calibration_error",
-                     robot_simulated ? "included (the simulated robot calibration's own robot)"
-                                     : "not included: the robot calibration was acquired from the devices and has "
-                                       "no truth here (mrsns-sim score judges it)"}};
-  if (placement_trials > 0) {
-    checkCancel(context);
-    context.report(0.9, "robot module placement trial (UR5 simulator, control loop, supervisor)");
-    result.figures["module_trial"] = placementTrialFigures(placement_trials, seed);
-    result.ok = result.ok && result.figures["module_trial"]["completed"].get<int>() > 0;
-  }
-  std::ostringstream s;
-  s.precision(3);
-  s << paths.size() << " screws placed: entry " << result.figures["entry_error_mm"]["mean"].get<double>()
-    << " mm, target " << result.figures["target_error_mm"]["mean"].get<double>() << " mm, angle "
-    << result.figures["angle_error_deg"]["mean"].get<double>() << " deg (mean)";
-  if (result.figures.contains("module_trial")) {
-    const auto& m = result.figures["module_trial"];
-    s << "; robot trial " << m["completed"].get<int>() << "/" << m["placements"].size() << " placed, distance "
-      << m["distance_deviation_mm"]["mean"].get<double>() << " mm, angle "
-      << m["angle_deviation_deg"]["mean"].get<double>() << " deg";
   }
   result.summary = s.str();
   return result;

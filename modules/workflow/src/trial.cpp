@@ -184,7 +184,7 @@ TrialResult runPhantomTrial(const TrialOptions& options) {
     // And turns the drill about its axis (the drilling direction navigation uses).
     nlohmann::json drill_spin = at_room;
     drill_spin["duration_s"] = 30.0;
-    plan.push_back({"drill-spin-calibration", drill_spin, false, !headset});
+    plan.push_back({"drill-spin-calibration", drill_spin});
     if (headset) {
       // The headset's wearer lines the tracked cube up with its hologram, view after view, when asked; then the
       // patient's fiducials are shown through the new calibration (the overlay the scorer measures at the
@@ -195,7 +195,7 @@ TrialResult runPhantomTrial(const TrialOptions& options) {
       hmd["duration_s"] = 120.0;
       // Then paper 000's hand-eye calibration of the headset's camera, when the room's headset sends photos.
       const bool camera = room->endpoints().value("hmd_camera_operator", false);
-      plan.push_back({"hmd-calibration", hmd, false, !camera});
+      plan.push_back({"hmd-calibration", hmd});
       if (camera) {
         // Paper 000's order: the board's corners digitised with the stylus first (the operator reads the prompts
         // on the headset), then the photos.
@@ -209,9 +209,17 @@ TrialResult runPhantomTrial(const TrialOptions& options) {
         photos["source"] = "hmd";
         photos["hmd_port"] = room->endpoints()["hmd_port"];
         photos["duration_s"] = 120.0;
-        plan.push_back({"hmd-camera-calibration", photos, false, true});
+        plan.push_back({"hmd-camera-calibration", photos});
       }
     }
+    // Then, the arm long released by the hand that spun its drill, it places every planned screw, navigated
+    // on the room's tracking under the safety supervisor with the drill's tip and axis calibrated above;
+    // mrsns-sim score measures where the drill truly went.
+    nlohmann::json placement = robot;
+    placement.erase("seed");
+    placement["robot"] = "ur";
+    placement["source"] = "plus";
+    plan.push_back({"robot-placement", placement, false, true});
   }
   // The real recording (PLUS's fCal data), compared with PLUS's own result.
   plan.push_back({"us-spatial-calibration", nlohmann::json::object(), true, false, room != nullptr});
@@ -230,7 +238,8 @@ TrialResult runPhantomTrial(const TrialOptions& options) {
                      {"checkerboard_poses", options.checkerboard_poses}}});
   }
   plan.push_back({"navigation", navigation});
-  plan.push_back({"robot-placement", {{"seed", seed}, {"placement_trials", options.placement_trials}}});
+  // Without the room, the in-process simulated tracker and arm place the screws (no truth judges them).
+  if (!room) plan.push_back({"robot-placement", {{"seed", seed}}});
   const bool have_plus = findDataFile("plus/fCal_Test_Calibration_3NWires.igs.mha").has_value();
   TrialResult result;
   result.ok = true;
@@ -280,6 +289,7 @@ TrialResult runPhantomTrial(const TrialOptions& options) {
     try {
       room_report["score"] = detail::scoreWithSim(detail::findSimProgram(), session.folder(), room_dir / "truth.json",
                                                   room_dir / "sim.log");
+      std::ofstream(room_dir / "score.json") << room_report["score"].dump(2) << '\n';
     } catch (const Error& e) {
       room_report["score_error"] = e.what();
       result.ok = false;
@@ -296,6 +306,13 @@ TrialResult runPhantomTrial(const TrialOptions& options) {
     if (options.checkerboard_poses > 0) {
       module_trials["checkerboard_trial"] = detail::checkerboardTrialFigures(options.checkerboard_poses, seed);
     }
+  }
+  // The robot module's placement trial (its UR5 simulator, control loop and supervisor, its own noise model):
+  // paper 001's distance and angle deviations, beside the placement in the room.
+  if (options.placement_trials > 0) {
+    options.context.report(1.0, "module trial: robot placement (UR5 simulator, control loop, supervisor)");
+    module_trials["placement_trial"] = detail::placementTrialFigures(options.placement_trials, seed);
+    if (module_trials["placement_trial"]["completed"].get<int>() == 0) result.ok = false;
   }
   std::vector<std::string> images;
   std::string snapshots_skipped;

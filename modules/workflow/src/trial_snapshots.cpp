@@ -2,6 +2,7 @@
 // registered cervical phantom with its planned screw paths, the deformed soft
 // tissue coloured by posterior uncertainty, achieved vs planned placement.
 #include <cstdlib>
+#include <fstream>
 #include <random>
 
 #include "mrsns/core/log.h"
@@ -90,9 +91,9 @@ std::string placement(const std::filesystem::path& folder, const std::vector<Pla
     centre += entry;
     ++n;
   }
-  for (const auto& path : placed["figures"]["paths"]) {
-    if (!path.contains("placed_entry_ct")) continue;
-    const Eigen::Vector3d entry = vec(path["placed_entry_ct"]), target = vec(path["placed_target_ct"]);
+  for (const auto& path : placed["paths"]) {
+    if (!path.contains("achieved_entry_ct")) continue;
+    const Eigen::Vector3d entry = vec(path["achieved_entry_ct"]), target = vec(path["achieved_target_ct"]);
     scene.setScrewPath("achieved " + path["name"].get<std::string>(),
                        entry - kExtension * (target - entry).normalized(), target, 1.2, kAchieved);
   }
@@ -155,7 +156,14 @@ std::vector<std::string> writeTrialSnapshots(const std::filesystem::path& folder
   }
   std::vector<std::string> images;
   const Json reg = session.step("registration");
-  const Json placed = session.step("robot-placement");
+  // Where the drill truly went is the room's scorer's (the trial keeps its report beside the truth).
+  Json placed;
+  try {
+    std::ifstream in(folder / "room" / "score.json");
+    if (in) placed = Json::parse(in).at("scored").at("robot_placement");
+  } catch (const Json::exception&) {
+    placed = Json();
+  }
   const bool have_registration = !reg.is_null() && reg.value("status", "") == "ok";
   const auto patient_T_ct = session.transform("CTToPatient");
   const TriangleMesh bone = sessionBone(session);
@@ -164,7 +172,7 @@ std::vector<std::string> writeTrialSnapshots(const std::filesystem::path& folder
     t.matrix() = patient_T_ct->matrix;
     const auto plans = session.plans();
     images.push_back(registeredPhantom(folder, t, plans, bone));
-    if (!placed.is_null() && placed.value("status", "") == "ok") images.push_back(placement(folder, plans, placed, bone));
+    if (placed.is_object()) images.push_back(placement(folder, plans, placed, bone));
   } else {
     logger()->warn("trial snapshots: no registration of the session's bone models, no phantom or placement snapshot");
   }
