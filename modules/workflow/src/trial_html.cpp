@@ -260,7 +260,9 @@ std::string renderTrialHtml(const nlohmann::json& report) {
        live_placement
            ? "the room's UR navigated along each planned screw on this session's registration, robot, drill and "
              "spin calibrations; where the drill truly went, scored from outside (" +
-                 number(at(placement_score, "placed")) +
+                 std::to_string(at(placement_score, "placed").is_number_integer()
+                                    ? at(placement_score, "placed").get<int>()
+                                    : 0) +
                  " screws; noise model below). The paper's figure is a physical experiment, context only"
            : "not placed in a room (" + escape(at(steps, "robot-placement/summary").is_string()
                                             ? at(steps, "robot-placement/summary").get<std::string>()
