@@ -132,6 +132,11 @@ TEST_F(SimulatedRoomTest, StartConnectAndStopFromTheDevicesMenu) {
 
   // The robot calibration drives the room's UR controller (the one its tracker sees) through its stations.
   EXPECT_EQ(window->deviceParams("robot-calibration").value("source", ""), "ur");
+  // The placement drives the same arm, navigated on the room's tracking.
+  const auto placement_params = window->deviceParams("robot-placement");
+  EXPECT_EQ(placement_params.value("robot", ""), "ur");
+  EXPECT_EQ(placement_params.value("source", ""), "plus");
+  EXPECT_EQ(placement_params.value("ur_rtde_port", 0), window->deviceParams("robot-calibration").value("ur_rtde_port", -1));
   window->findChild<QAction*>("actionStep_robot-calibration")->trigger();
   ASSERT_TRUE(mrsns::test::waitUntil([&] { return !window->taskRunning(); }, 150000));
   const auto after_robot = window->sessionState();

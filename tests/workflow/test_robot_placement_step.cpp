@@ -50,12 +50,10 @@ TEST(RobotPlacementStep, ThePathsGivenArePlacedInThatOrder) {
 TEST(RobotPlacementStep, AStopFailsTheStepAndTheRemainingPathsAreNotStarted) {
   auto session = plannedAndRegistered("placement-stop");
   // The patient's reference lost 1 s into the first path (approaching): the supervisor stops the arm.
-  const auto result = runStep(session, "robot-placement",
-                              {{"paths", {1, 3}},
-                               {"dropout_tool", "PatientToTracker"},
-                               {"dropout_start_s", 1.0},
-                               {"dropout_duration_s", 1.0}},
-                              {});
+  const auto result = runStep(
+      session, "robot-placement",
+      {{"paths", {1, 3}}, {"dropout_tool", "PatientToTracker"}, {"dropout_start_s", 1.0}, {"dropout_duration_s", 1.0}},
+      {});
   EXPECT_FALSE(result.ok);
   const auto& paths = result.figures["paths"];
   ASSERT_EQ(paths.size(), 1u) << "path 3 must not start after the stop";

@@ -29,10 +29,11 @@ void registerTrialVerb(CLI::App& app, GlobalOptions& options, VerbList& verbs) {
       "The whole phantom trial, headless: the simulated operating room (mrsns-sim) started as a child process; "
       "acquired live from it as from the real devices: the stylus pivot, the patient registration (fiducials "
       "touched, bone swept), the N-wire phantom's registration, the probe's temporal and spatial calibration, "
-      "the robot calibration on its UR controller, the drill pivoted by hand and the headset's calibration with "
-      "the cube; `mrsns-sim score` judges them against its truth; PLUS's recording calibrated beside PLUS's "
-      "result; paper 001 Fig. 7 and paper 000 as module trials; navigation with deformation tracking and a "
-      "simulated tracker loss, robot placement (both in-process); writes a report folder");
+      "the robot calibration on its UR controller, the drill pivoted by hand, the headset's calibration with "
+      "the cube, then every planned screw placed by its UR under the safety supervisor; `mrsns-sim score` judges "
+      "them against its truth (the placement where the drill truly went); PLUS's recording calibrated beside "
+      "PLUS's result; paper 001 Fig. 7, paper 000 and the robot's placement as module trials; navigation with "
+      "deformation tracking and a simulated tracker loss (in-process); writes a report folder");
   sub->add_option("--out", args->out, "report folder (absent or empty)")->capture_default_str();
   sub->add_option("--seed", args->seed, "random seed of the simulated devices")->capture_default_str();
   sub->add_option("--navigation-s", args->navigation_s, "navigation run time, s")

@@ -93,6 +93,30 @@ nlohmann::json MainWindow::deviceParams(const QString& step) const {
               {"ur_dashboard_port", e.dashboard_port}};
     return params;
   }
+  // The placement: the room's arm, navigated on its tracking (the session's calibrations of that arm and its
+  // drill); connected to a PlusServer, its tracking with the UR controller the session's navigation names.
+  if (session_ && step == QStringLiteral("robot-placement")) {
+    if (sim_room_ != nullptr && sim_room_->ready() && sim_room_->endpoints().rtde_port > 0) {
+      const auto& e = sim_room_->endpoints();
+      return {{"source", "plus"},
+              {"host", e.host.toStdString()},
+              {"port", e.plus_port},
+              {"robot", "ur"},
+              {"ur_host", e.host.toStdString()},
+              {"ur_rtde_port", e.rtde_port},
+              {"ur_script_port", e.realtime_port},
+              {"ur_dashboard_port", e.dashboard_port}};
+    }
+    const auto devices = session_->step("connect-devices");
+    if (devices.is_object() && devices.value("status", "") == "ok" && devices.contains("params") &&
+        devices["params"].value("source", "") == "plus") {
+      params = {{"source", "plus"}, {"robot", "ur"}};
+      for (const char* key : {"host", "port"}) {
+        if (devices["params"].contains(key)) params[key] = devices["params"][key];
+      }
+    }
+    return params;
+  }
   // The HMD calibrations with the headset (the cube; the camera's photos of the board): the simulated room's
   // (told its port when the room started), or a real one on the usual hologram port once the session is
   // connected to a PlusServer.

@@ -61,8 +61,7 @@ inline const Json* recordedTransform(const Json& session, const std::string& ste
   if (!session.contains("steps") || !session["steps"].contains(step)) return nullptr;
   const Json& s = session["steps"][step];
   if (s.value("status", "") != "ok" || !fromSimulatedRoom(s) || !s.contains("figures") ||
-      !s["figures"].contains("transforms") ||
-      !s["figures"]["transforms"].contains(name)) {
+      !s["figures"].contains("transforms") || !s["figures"]["transforms"].contains(name)) {
     return nullptr;
   }
   return &s["figures"]["transforms"][name];

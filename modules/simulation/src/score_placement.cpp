@@ -1,12 +1,13 @@
 // The robot's placement judged by where the drill truly went: the room's drill tip (its marker's true pose,
 // the true tip on it) in the CT through the patient reference's true pose at every tracker tick of each
 // path the workstation drove, against the session's planned path.
+#include "score_placement.h"
+
 #include <Eigen/Eigenvalues>
 #include <cmath>
 #include <optional>
 
 #include "score_json.h"
-#include "score_placement.h"
 
 namespace mrsns::simulation {
 
@@ -59,6 +60,48 @@ std::pair<Eigen::Vector3d, Eigen::Vector3d> fitLine(const std::vector<Eigen::Vec
   Eigen::Vector3d direction = eig.eigenvectors().col(2);
   if (direction.dot(along) < 0.0) direction = -direction;
   return {centroid, direction};
+}
+
+struct TipMotion {
+  double path_mm = 0.0;          ///< the length of the tip's path
+  double displacement_mm = 0.0;  ///< the farthest it got from where it was
+  double rest_utc = 0.0;         ///< from then on slower than 1 mm/s
+};
+
+/// The true tip's motion from `utc` to the end of the samples.
+TipMotion motionFrom(const std::vector<TipSample>& tips, double utc) {
+  TipMotion m;
+  m.rest_utc = utc;
+  const TipSample* first = nullptr;
+  const TipSample* previous = nullptr;
+  for (const auto& s : tips) {
+    if (s.utc < utc) continue;
+    if (first == nullptr) first = &s;
+    if (previous != nullptr) {
+      const double step_mm = (s.ct - previous->ct).norm();
+      m.path_mm += step_mm;
+      if (step_mm / std::max(1e-6, s.utc - previous->utc) > 1.0) m.rest_utc = s.utc;
+    }
+    m.displacement_mm = std::max(m.displacement_mm, (s.ct - first->ct).norm());
+    previous = &s;
+  }
+  return m;
+}
+
+/// The last fault of the room's timeline (its event, its utc) to begin within [from, to].
+std::optional<std::pair<std::string, double>> lastFaultBefore(const Json& truth, double from, double to) {
+  std::optional<std::pair<std::string, double>> found;
+  for (const auto& e : truth.value("events", Json::array())) {
+    const std::string what = e.value("event", std::string());
+    const double utc = e.value("utc", 0.0);
+    // Not an end ("occlusion end PatientToTracker", "video_freeze end").
+    if (utc < from || utc > to || what.find(" end") != std::string::npos) continue;
+    for (const char* kind :
+         {"occlusion", "tracker_disconnect", "patient_shift", "video_freeze", "robot_protective_stop"}) {
+      if (what.rfind(kind, 0) == 0) found = std::pair{what, utc};
+    }
+  }
+  return found;
 }
 
 double angleDeg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
@@ -159,27 +202,23 @@ void scoreRobotPlacement(const Json& session, const Json& truth, Json& scored, J
       // After the stop command: how far the true tip still went, and when it came to rest (slower than
       // 1 mm/s from then on).
       const double utc_stop = p["utc_stop"].get<double>();
-      std::optional<Eigen::Vector3d> at_stop, previous;
-      double travelled = 0.0, farthest = 0.0, rest_utc = utc_stop, previous_utc = 0.0;
-      for (const auto& s : tips) {
-        if (s.utc < utc_stop) continue;
-        if (!at_stop) at_stop = s.ct;
-        if (previous) {
-          const double step_mm = (s.ct - *previous).norm();
-          travelled += step_mm;
-          if (step_mm / std::max(1e-6, s.utc - previous_utc) > 1.0) rest_utc = s.utc;
-        }
-        farthest = std::max(farthest, (s.ct - *at_stop).norm());
-        previous = s.ct;
-        previous_utc = s.utc;
-      }
+      const TipMotion after_stop = motionFrom(tips, utc_stop);
       Json stop = {{"path", name},
                    {"reason", p.value("stop_reason", std::string())},
-                   {"tip_path_after_stop_mm", travelled},
-                   {"tip_displacement_after_stop_mm", farthest},
-                   {"time_to_rest_s", rest_utc - utc_stop},
+                   {"tip_path_after_stop_mm", after_stop.path_mm},
+                   {"tip_displacement_after_stop_mm", after_stop.displacement_mm},
+                   {"time_to_rest_s", after_stop.rest_utc - utc_stop},
                    {"workstation_stop_latency_ms", p.value("stop_latency_ms", Json(nullptr))},
                    {"workstation_time_to_stop_s", p.value("time_to_stop_s", Json(nullptr))}};
+      // The room's fault that caused it (the last one to begin in the path before the stop): from its onset,
+      // which the workstation cannot see, to the stop command and to the arm at rest.
+      if (const auto fault = lastFaultBefore(truth, p["utc_start"].get<double>(), utc_stop)) {
+        const TipMotion after_fault = motionFrom(tips, fault->second);
+        stop["fault"] = fault->first;
+        stop["fault_to_stop_command_ms"] = 1e3 * (utc_stop - fault->second);
+        stop["fault_to_rest_s"] = after_stop.rest_utc - fault->second;
+        stop["tip_path_after_fault_mm"] = after_fault.path_mm;
+      }
       r["stop"] = stop;
       stops.push_back(stop);
     }

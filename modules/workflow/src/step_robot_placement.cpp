@@ -116,8 +116,8 @@ PathRun placeOne(Session& session, const Json& path_params, const std::initializ
         if (finished) finished_at = std::chrono::steady_clock::now();
       }
       // Placed once the drill is back at the stand-off (the retraction's end), or 30 s after the path's end.
-      if (finished && (st.guidance_phase == "Done" ||
-                       std::chrono::steady_clock::now() - *finished_at > std::chrono::seconds(30))) {
+      if (finished &&
+          (st.guidance_phase == "Done" || std::chrono::steady_clock::now() - *finished_at > std::chrono::seconds(30))) {
         outcome = "placed";
         break;
       }
@@ -163,12 +163,9 @@ PathRun placeOne(Session& session, const Json& path_params, const std::initializ
 }  // namespace
 
 StepResult runRobotPlacement(Session& session, const Json& params, const StepContext& context) {
-  static const std::initializer_list<const char*> kKeys = {MRSNS_DEVICE_KEYS,
-                                                           MRSNS_NAVIGATION_ROBOT_KEYS,
-                                                           MRSNS_NAVIGATION_SOFT_TISSUE_KEYS,
-                                                           "paths",
-                                                           "path_timeout_s",
-                                                           "record"};
+  static const std::initializer_list<const char*> kKeys = {
+      MRSNS_DEVICE_KEYS, MRSNS_NAVIGATION_ROBOT_KEYS, MRSNS_NAVIGATION_SOFT_TISSUE_KEYS, "paths", "path_timeout_s",
+      "record"};
   const Params p("robot-placement", params, kKeys);
   if (p.has("robot_path")) {
     throw InvalidArgumentError("robot-placement: give paths=[i, ...] (robot_path is the navigation step's)");
@@ -178,8 +175,9 @@ StepResult runRobotPlacement(Session& session, const Json& params, const StepCon
   }
   const auto plans = session.plans();
   if (plans.empty()) {
-    throw InvalidArgumentError("robot-placement: the session has no planned screw: plan them first (plan-screw, "
-                               "import-plan)");
+    throw InvalidArgumentError(
+        "robot-placement: the session has no planned screw: plan them first (plan-screw, "
+        "import-plan)");
   }
   const double timeout_s = p.number("path_timeout_s", 120.0);
   if (!(timeout_s >= 5.0 && timeout_s <= 3600.0)) {
@@ -204,7 +202,8 @@ StepResult runRobotPlacement(Session& session, const Json& params, const StepCon
     identity = run.record.value("device_identity", "");
     if (run.placed) {
       ++placed;
-      depth_short.push_back(run.record["planned_depth_mm"].get<double>() - run.record["depth_reached_mm"].get<double>());
+      depth_short.push_back(run.record["planned_depth_mm"].get<double>() -
+                            run.record["depth_reached_mm"].get<double>());
     }
     paths.push_back(run.record);
     if (!run.placed) {
