@@ -185,7 +185,7 @@ TEST(ScorePlacement, AfterAStopTheTipsTravelAndTimeToRestComeFromTheTruth) {
   // and the headset's prompts are not it.
   const Json events = {{{"t", 1.0}, {"utc", kUtc0 + 1.0}, {"event", "hmd prompt: line up the cube"}},
                        {{"t", 3.0}, {"utc", kUtc0 + 3.0}, {"event", "occlusion end StylusToTracker"}},
-                       {{"t", 3.8}, {"utc", kUtc0 + 3.8}, {"event", "occlusion PatientToTracker"}},
+                       {{"t", 3.8}, {"utc", kUtc0 + 3.8}, {"event", "occlusion start PatientToTracker"}},
                        {{"t", 4.5}, {"utc", kUtc0 + 4.5}, {"event", "robot_protective_stop"}}};
   const auto c = makePlacementCase("placement-stop", tip, 6.0,
                                    {{"outcome", "stopped"},
@@ -203,7 +203,7 @@ TEST(ScorePlacement, AfterAStopTheTipsTravelAndTimeToRestComeFromTheTruth) {
   EXPECT_NEAR(stop["tip_path_after_stop_mm"].get<double>(), 0.75, 1e-3);
   // Slower than 1 mm/s from 0.3 - 1/(5/0.3) s = 0.24 s on, sampled at 60 Hz.
   EXPECT_NEAR(stop["time_to_rest_s"].get<double>(), 0.24, 1.0 / kRate + 1e-9);
-  EXPECT_EQ(stop["fault"], "occlusion PatientToTracker");
+  EXPECT_EQ(stop["fault"], "occlusion start PatientToTracker");
   EXPECT_NEAR(stop["fault_to_stop_command_ms"].get<double>(), 200.0, 1e-3);
   // 0.2 s at 5 mm/s before the stop, then the 0.75 mm to rest.
   EXPECT_NEAR(stop["tip_path_after_fault_mm"].get<double>(), 1.75, 1e-3);
