@@ -11,6 +11,7 @@
 #include <functional>
 #include <nlohmann/json.hpp>
 
+#include "matrix_json.h"
 #include "mrsns/simulation/score.h"
 #include "test_data.h"
 
@@ -33,14 +34,6 @@ Eigen::Isometry3d placementPose(const Eigen::Vector3d& axis, double deg, const E
 Json compactPose(const Eigen::Isometry3d& p) {
   const Eigen::Quaterniond q(p.linear());
   return {p.translation().x(), p.translation().y(), p.translation().z(), q.w(), q.x(), q.y(), q.z()};
-}
-
-Json rowMajorJson(const Eigen::Isometry3d& p) {
-  Json m = Json::array();
-  for (int r = 0; r < 4; ++r) {
-    for (int c = 0; c < 4; ++c) m.push_back(p.matrix()(r, c));
-  }
-  return m;
 }
 
 // The true tip in the CT at time t (s from kUtc0): where the drill goes.
@@ -74,7 +67,7 @@ PlacementCase makePlacementCase(const std::string& name, const TipPath& tip, dou
   }
   Json st = {{"seed", 1},
              {"scenario", "synthetic"},
-             {"CTToReference", rowMajorJson(reference_T_ct)},
+             {"CTToReference", test::rowMajorJson(reference_T_ct.matrix())},
              {"patient_reference_tool", "PatientToTracker"}};
   if (truth_has_robot) {
     st["robot_marker_tool"] = "FlangeToTracker";

@@ -14,19 +14,12 @@
 #include "mrsns/simulation/score.h"
 #include "mrsns/workflow/session.h"
 #include "mrsns/workflow/steps.h"
+#include "matrix_json.h"
 
 namespace mrsns::workflow {
 namespace {
 
 using Json = nlohmann::json;
-
-Json row(const Eigen::Matrix4d& m) {
-  Json j = Json::array();
-  for (int r = 0; r < 4; ++r) {
-    for (int c = 0; c < 4; ++c) j.push_back(m(r, c));
-  }
-  return j;
-}
 
 // The session the earlier steps would have left: the shape model placed in the CT, ImageToProbe with its frame
 // size and probe, and CTToPatient.
@@ -44,12 +37,14 @@ Session sessionFor(const test::LiveRoom& r) {
   session.recordStep("us-spatial-calibration",
                      {{"status", "ok"},
                       {"figures",
-                       {{"transforms", {{"ImageToProbe", row(o.soft_tissue.probe_T_pixel)}}},
+                       {{"transforms", {{"ImageToProbe", test::rowMajorJson(o.soft_tissue.probe_T_pixel)}}},
                         {"image_size_px", {o.soft_tissue.image_width, o.soft_tissue.image_height}},
                         {"probe_tool", "Probe"},
                         {"tracker_lag_ms", 0.0}}}});
   session.recordStep("registration",
-                     {{"status", "ok"}, {"figures", {{"transforms", {{"CTToPatient", row(o.soft_tissue.patient_T_ct.matrix())}}}}}});
+                     {{"status", "ok"},
+                      {"figures",
+                       {{"transforms", {{"CTToPatient", test::rowMajorJson(o.soft_tissue.patient_T_ct.matrix())}}}}}});
   return session;
 }
 

@@ -15,6 +15,7 @@
 #include <iostream>
 #include <nlohmann/json.hpp>
 
+#include "matrix_json.h"
 #include "mrsns/simulation/operating_room.h"
 #include "mrsns/simulation/scenario.h"
 #include "mrsns/simulation/score.h"
@@ -25,14 +26,6 @@ namespace mrsns::workflow {
 namespace {
 
 using Json = nlohmann::json;
-
-Json rowMajor(const Eigen::Isometry3d& t) {
-  Json m = Json::array();
-  for (int r = 0; r < 4; ++r) {
-    for (int c = 0; c < 4; ++c) m.push_back(t.matrix()(r, c));
-  }
-  return m;
-}
 
 struct PlacementRun {
   StepResult result;
@@ -70,17 +63,21 @@ PlacementRun placeInRoom(const std::string& name, const Json& faults) {
   const auto tip = marker_T_tip.translation();
   session.recordStep(
       "registration",
-      {{"status", "ok"}, {"figures", {{"transforms", {{"CTToPatient", rowMajor(scenario.patient->reference_T_ct)}}}}}});
-  session.recordStep("robot-calibration", {{"status", "ok"},
-                                           {"params", {{"marker", robot.marker_tool}}},
-                                           {"figures",
-                                            {{"transforms",
-                                              {{"RobotBaseToTracker", rowMajor(robot.tracker_T_base)},
-                                               {"MarkerToFlange", rowMajor(robot.flange_T_marker)}}}}}});
+      {{"status", "ok"},
+       {"figures",
+        {{"transforms", {{"CTToPatient", test::rowMajorJson(scenario.patient->reference_T_ct.matrix())}}}}}});
+  session.recordStep("robot-calibration",
+                     {{"status", "ok"},
+                      {"params", {{"marker", robot.marker_tool}}},
+                      {"figures",
+                       {{"transforms",
+                         {{"RobotBaseToTracker", test::rowMajorJson(robot.tracker_T_base.matrix())},
+                          {"MarkerToFlange", test::rowMajorJson(robot.flange_T_marker.matrix())}}}}}});
   session.recordStep(
       "drill-calibration",
       {{"status", "ok"},
-       {"figures", {{"tool", "Flange"}, {"transforms", {{"FlangeTipToFlange", rowMajor(marker_T_tip)}}}}}});
+       {"figures",
+        {{"tool", "Flange"}, {"transforms", {{"FlangeTipToFlange", test::rowMajorJson(marker_T_tip.matrix())}}}}}});
   session.recordStep("drill-spin-calibration",
                      {{"status", "ok"},
                       {"figures",
