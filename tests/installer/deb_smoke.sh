@@ -36,12 +36,15 @@ grep -q "\"sample\": \"$root/usr/share/mrsns/sample_session\"" "$deb_dir/run/sam
   exit 1
 }
 
-# The WebXR client from the installed package: its serve, its page, chromium showing the models.
+# The WebXR client from the installed package: its serve, its page, chromium showing the models. In real time:
+# chromium's --virtual-time-budget runs the page's clock ahead of the server's (a WebSocket does not hold it), so
+# under load the page was dumped before it had paired. The serve's own report says what the page did: it paired
+# and reported drawing both models at their poses (the page's "shown" messages, sent after a frame is drawn).
 if command -v chromium >/dev/null; then
   run=$deb_dir/run
   "$cli" make-phantom --output "$run/phantom" --spacing 1.5 --json >/dev/null
   "$cli" serve --port 0 --models "$run/phantom/C5.stl" "$run/phantom/carotid_artery.stl" --webxr-port 0 \
-    --webxr-code 135790 --webxr-tls-dir "$run/tls" --duration 40 --json >"$run/serve.json" 2>"$run/serve.err" &
+    --webxr-code 135790 --webxr-tls-dir "$run/tls" --duration 25 --json >"$run/serve.json" 2>"$run/serve.err" &
   serve_pid=$!
   url=""
   for _ in $(seq 1 100); do
@@ -51,16 +54,23 @@ if command -v chromium >/dev/null; then
   done
   [ -n "$url" ] || { kill "$serve_pid"; echo "the installed serve printed no WebXR address:" >&2; cat "$run/serve.err" >&2; exit 1; }
   chromium --headless=new --no-sandbox --ignore-certificate-errors --use-angle=swiftshader --enable-unsafe-swiftshader \
-    --user-data-dir="$run/chromium" --virtual-time-budget=15000 --dump-dom "${url}?code=135790" \
-    >"$run/page.html" 2>"$run/chromium.log" || true
-  kill "$serve_pid" 2>/dev/null || true
-  wait "$serve_pid" 2>/dev/null || true
-  grep -q '>2 models<' "$run/page.html" && grep -q 'class="pill ok">connected<' "$run/page.html" || {
-    echo "the WebXR page served by the installed package did not show its 2 models:" >&2
-    grep -o '<div id="hud".*' "$run/page.html" | head -c 2000 >&2
+    --user-data-dir="$run/chromium" --remote-debugging-port=0 "${url}?code=135790" \
+    >"$run/chromium.out" 2>"$run/chromium.log" &
+  chromium_pid=$!
+  wait "$serve_pid" || { kill "$chromium_pid" 2>/dev/null; echo "the installed serve failed:" >&2; cat "$run/serve.err" >&2; exit 1; }
+  kill "$chromium_pid" 2>/dev/null || true
+  wait "$chromium_pid" 2>/dev/null || true
+  number() { sed -n "s/.*\"$1\": *\([0-9][0-9]*\).*/\1/p" "$run/serve.json" | head -n 1; }
+  paired=$(number pages_paired)
+  shown=$(number models_shown)
+  if [ "${paired:-0}" -lt 1 ] || [ "${shown:-0}" -ne 2 ]; then
+    echo "the WebXR page served by the installed package did not pair and draw its 2 models" \
+      "(pages paired: ${paired:-?}, models drawn: ${shown:-?}); serve's report:" >&2
+    cat "$run/serve.json" >&2
+    grep -v dbus "$run/chromium.log" | tail -n 20 >&2
     exit 1
-  }
-  echo "WebXR page from the installed package: connected, 2 models"
+  fi
+  echo "WebXR page from the installed package: paired, drew its $shown models at their poses"
 elif [ "${CI:-}" = true ] || [ "${CI:-}" = 1 ]; then
   echo "chromium is not installed (scripts/debian-packages.txt): the WebXR page cannot be tried" >&2
   exit 1

@@ -189,6 +189,7 @@ Json webXrReport(webxr::WebXrHologramService& web) {
   j["frames_sent"] = server.frames_sent;
   j["confirmations_forwarded"] = relay.confirmations_forwarded;
   j["display_reports"] = relay.display_reports;
+  j["models_shown"] = relay.models_shown;
   auto number = [](double v) { return std::isfinite(v) ? Json(v) : Json(nullptr); };
   j["display_latency_p50_ms"] = number(relay.display_latency_p50_ms);
   j["display_latency_p99_ms"] = number(relay.display_latency_p99_ms);

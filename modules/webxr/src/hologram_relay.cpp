@@ -9,6 +9,7 @@
 #include <map>
 #include <mutex>
 #include <nlohmann/json.hpp>
+#include <set>
 #include <vector>
 
 #include "mrsns/core/log.h"
@@ -251,6 +252,8 @@ struct HologramRelay::Impl {
     {
       std::lock_guard lock(mutex);
       ++display_reports;
+      // Only the scene's own models count (a page cannot grow this with names of its own).
+      if (meshes.count(pose.model) > 0) shown_models.insert(pose.model);
       if (std::isfinite(pose.latency_ms) && pose.latency_ms >= 0.0 && pose.latency_ms < 60e3) {
         latencies.push_back(pose.latency_ms);
         if (latencies.size() > kLatencyWindow) latencies.pop_front();
@@ -281,6 +284,7 @@ struct HologramRelay::Impl {
   std::uint64_t transforms_relayed = 0;
   std::uint64_t confirmations_forwarded = 0;
   std::uint64_t display_reports = 0;
+  std::set<std::string> shown_models;  ///< the scene's models some page reported drawing
   std::deque<double> latencies;
   double latency_sent_at = 0.0;
   std::string latency_text;
@@ -336,6 +340,7 @@ HologramRelayStats HologramRelay::stats() const {
   s.transforms_relayed = impl_->transforms_relayed;
   s.confirmations_forwarded = impl_->confirmations_forwarded;
   s.display_reports = impl_->display_reports;
+  s.models_shown = impl_->shown_models.size();
   const std::vector<double> recent(impl_->latencies.begin(), impl_->latencies.end());
   s.display_latency_p50_ms = percentile(recent, 0.5);
   s.display_latency_p99_ms = percentile(recent, 0.99);

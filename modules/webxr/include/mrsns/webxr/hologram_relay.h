@@ -42,6 +42,7 @@ struct HologramRelayStats {
   std::uint64_t transforms_relayed = 0;
   std::uint64_t confirmations_forwarded = 0;
   std::uint64_t display_reports = 0;
+  std::size_t models_shown = 0;  ///< the scene's models some page reported drawing at a pose
   /// Tracker sample -> pose displayed by a page, ms (recent reports; NaN without any).
   double display_latency_p50_ms = 0.0;
   double display_latency_p99_ms = 0.0;
