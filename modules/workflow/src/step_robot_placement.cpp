@@ -225,7 +225,7 @@ StepResult runRobotPlacement(Session& session, const Json& params, const StepCon
       result.outputs.push_back(t.substr(0, t.size() - 4) + ".raw");
     }
   }
-  const std::string source = params.is_object() ? params.value("source", std::string("simulated")) : "simulated";
+  const std::string source = deviceOptions(p).source;
   result.figures = {{"paths", paths},
                     {"planned", chosen.size()},
                     {"placed", placed},
